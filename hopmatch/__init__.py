@@ -1,0 +1,31 @@
+"""hopmatch: sparse stereo matching with the 2D Hopfield network of Achour & Mahiddine (2002).
+
+The public face of the package. See ``docs/`` and ``README.md``.
+"""
+
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version
+
+from . import errors
+from .feature import (
+    DericheMoravecDetector,
+    deriche_gradient,
+    gradient_windows,
+    moravec_points,
+    moravec_response,
+)
+
+try:
+    __version__ = version("hopmatch")
+except PackageNotFoundError:  # running from a source tree that was not installed
+    __version__ = "0.0.0"
+
+__all__ = [
+    "DericheMoravecDetector",
+    "deriche_gradient",
+    "errors",
+    "gradient_windows",
+    "moravec_points",
+    "moravec_response",
+]

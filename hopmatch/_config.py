@@ -1,0 +1,31 @@
+"""The single Numba policy of hopmatch: every kernel is compiled through :func:`jit`.
+
+- ``fastmath`` is on without ``nnan``/``ninf``: NaN and infinity keep their IEEE meaning, so
+  kernels that see NaN (masked or unknown values) stay correct.
+- Kernels whose results are compared bit-for-bit with a NumPy reference use
+  ``jit(exact=True)``: no fastmath at all, so the order of floating-point operations is the
+  one written in the source.
+- ``cache=True`` writes compiled machine code next to the package (or to
+  ``NUMBA_CACHE_DIR``); set ``HOPMATCH_NUMBA_CACHE=0`` to turn it off.
+- Every kernel is ``nogil``, so hopmatch objects can run in concurrent threads.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numba
+
+FASTMATH: frozenset[str] = frozenset({"nsz", "arcp", "contract", "afn", "reassoc"})
+CACHE: bool = os.environ.get("HOPMATCH_NUMBA_CACHE", "1").strip() not in {"0", "false", "no"}
+
+
+def jit(*signature, exact: bool = False):
+    """Decorate a kernel with hopmatch's Numba policy (``nopython``, ``nogil``, cached)."""
+    return numba.njit(
+        *signature,
+        cache=CACHE,
+        nogil=True,
+        fastmath=False if exact else set(FASTMATH),
+        error_model="numpy",
+    )

@@ -1,0 +1,292 @@
+"""Parameters of the cv2-like classes: validation, get/set accessors, FileStorage I/O.
+
+A class lists its parameters once, as :class:`Param` specs in ``PARAMS``; this module gives
+it keyword construction with validation, ``getX``/``setX`` accessors named as OpenCV names
+them (``window_size`` -> ``getWindowSize``), ``write``/``read`` through ``cv2.FileStorage``,
+``__repr__``, equality of configuration and pickling.
+"""
+
+from __future__ import annotations
+
+import numbers
+import os
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+
+from .errors import InvalidArgumentError, InvalidTypeError
+
+_NONE_MARK = "__none__"
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter: its name, default and a validator returning the normalised value."""
+
+    name: str
+    default: Any
+    check: Callable[[str, Any], Any]
+    doc: str = ""
+
+
+def camel(name: str) -> str:
+    """``window_size`` -> ``WindowSize``."""
+    return "".join(part[:1].upper() + part[1:] for part in name.split("_"))
+
+
+# -- validators --------------------------------------------------------------------------
+
+
+def integer(lo: int | None = None, hi: int | None = None, *, odd: bool = False, optional=False):
+    def check(name, value):
+        if value is None and optional:
+            return None
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+            raise InvalidTypeError(f"`{name}` must be an integer, got {type(value).__name__} {value!r}")
+        value = int(value)
+        if (lo is not None and value < lo) or (hi is not None and value > hi):
+            rng = f"[{lo if lo is not None else '-inf'}, {hi if hi is not None else 'inf'}]"
+            raise InvalidArgumentError(f"`{name}` must be in {rng}, got {value}")
+        if odd and value % 2 == 0:
+            raise InvalidArgumentError(f"`{name}` must be odd, got {value}")
+        return value
+
+    return check
+
+
+def real(lo=None, hi=None, *, lo_open=False, optional=False):
+    def check(name, value):
+        if value is None and optional:
+            return None
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise InvalidTypeError(f"`{name}` must be a number, got {type(value).__name__} {value!r}")
+        value = float(value)
+        bad = value != value or value in (float("inf"), float("-inf"))
+        bad = bad or (lo is not None and (value <= lo if lo_open else value < lo))
+        bad = bad or (hi is not None and value > hi)
+        if bad:
+            left = "(" if lo_open else "["
+            rng = f"{left}{lo if lo is not None else '-inf'}, {hi if hi is not None else 'inf'}]"
+            raise InvalidArgumentError(f"`{name}` must be a finite number in {rng}, got {value}")
+        return value
+
+    return check
+
+
+def boolean():
+    def check(name, value):
+        if isinstance(value, bool):
+            return value
+        if isinstance(value, numbers.Integral) and int(value) in (0, 1):
+            return bool(value)
+        raise InvalidTypeError(f"`{name}` must be True or False, got {type(value).__name__} {value!r}")
+
+    return check
+
+
+def choice(*options: str):
+    def check(name, value):
+        if not isinstance(value, str):
+            raise InvalidTypeError(f"`{name}` must be one of {list(options)}, got {value!r}")
+        if value not in options:
+            raise InvalidArgumentError(f"`{name}` must be one of {list(options)}, got {value!r}")
+        return value
+
+    return check
+
+
+# -- the base class ----------------------------------------------------------------------
+
+
+class Configurable:
+    """Base of the cv2-like classes. Subclasses set ``PARAMS`` and ``DEFAULT_NAME``."""
+
+    PARAMS: tuple[Param, ...] = ()
+    DEFAULT_NAME: str = "hopmatch_Configurable"
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        for p in cls.PARAMS:
+            getter_name, setter_name = "get" + camel(p.name), "set" + camel(p.name)
+            if getter_name not in cls.__dict__:
+                setattr(cls, getter_name, _make_getter(p.name))
+            if setter_name not in cls.__dict__:
+                setattr(cls, setter_name, _make_setter(p.name))
+
+    def _init_params(self, params: dict[str, Any]) -> None:
+        known = {p.name for p in self.PARAMS}
+        unknown = sorted(set(params) - known)
+        if unknown:
+            raise InvalidArgumentError(
+                f"{type(self).__name__} got unknown parameter(s) {unknown}; "
+                f"valid parameters are {sorted(known)}"
+            )
+        self._params = {p.name: p.check(p.name, p.default) if p.default is not None else None
+                        for p in self.PARAMS}
+        for name, value in params.items():
+            self._set_param(name, value)
+        self._check_consistency()
+
+    def _set_param(self, name: str, value) -> None:
+        spec = next(p for p in self.PARAMS if p.name == name)
+        self._params[name] = spec.check(name, value)
+
+    def _check_consistency(self) -> None:
+        """Checks across parameters (subclasses override)."""
+
+    def _on_params_changed(self) -> None:
+        """Called after a setter changed a parameter (subclasses override)."""
+
+    @classmethod
+    def create(cls, **params):
+        """cv2-style factory: ``X.create(**params)`` is ``X(**params)``."""
+        return cls(**params)
+
+    def get_params(self) -> dict[str, Any]:
+        """All parameters as a dict (a copy)."""
+        return dict(self._params)
+
+    def getDefaultName(self) -> str:  # noqa: N802 (cv2 naming)
+        """The name used as the FileStorage node (no dot, as FileStorage keys cannot hold one)."""
+        return self.DEFAULT_NAME
+
+    # -- FileStorage ---------------------------------------------------------------------
+    def write(self, fs, name: str | None = None) -> None:
+        """Write every parameter to ``fs``: a path (``.yml``, ``.yaml``, ``.xml``, ``.json``)
+        or an open ``cv2.FileStorage``. A path is written atomically (temporary file, then
+        rename), so a failed write never leaves a half-written file."""
+        node = name or self.getDefaultName()
+        if isinstance(fs, (str, os.PathLike)):
+            path = Path(fs)
+            if path.suffix.lower() not in (".yml", ".yaml", ".xml", ".json"):
+                raise InvalidArgumentError(
+                    f"`fs` path must end in .yml, .yaml, .xml or .json, got {str(path)!r}"
+                )
+            if not path.parent.is_dir():
+                raise InvalidArgumentError(f"`fs`: folder {str(path.parent)!r} does not exist")
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+            os.close(fd)
+            try:
+                out = cv2.FileStorage(tmp, cv2.FILE_STORAGE_WRITE)
+                self._write_node(out, node)
+                out.release()
+                os.replace(tmp, path)
+            finally:
+                if os.path.exists(tmp):
+                    os.unlink(tmp)
+            return
+        if not isinstance(fs, cv2.FileStorage):
+            raise InvalidTypeError(f"`fs` must be a path or a cv2.FileStorage, got {type(fs).__name__}")
+        if not fs.isOpened():
+            raise InvalidArgumentError("`fs` is a cv2.FileStorage that is not open for writing")
+        self._write_node(fs, node)
+
+    def _write_node(self, fs, node: str) -> None:
+        fs.startWriteStruct(node, cv2.FileNode_MAP)
+        fs.write("format", 1)
+        for p in self.PARAMS:
+            value = self._params[p.name]
+            if value is None:
+                fs.write(p.name, _NONE_MARK)
+            elif isinstance(value, bool):
+                fs.write(p.name, int(value))
+            elif isinstance(value, int):
+                fs.write(p.name, int(value))
+            elif isinstance(value, float):
+                fs.write(p.name, float(value))
+            else:
+                fs.write(p.name, str(value))
+        fs.endWriteStruct()
+
+    def read(self, fs, name: str | None = None) -> None:
+        """Read parameters written by :meth:`write` from a path, a ``cv2.FileStorage`` or a
+        ``cv2.FileNode``. Values are validated as if passed to the constructor."""
+        node_name = name or self.getDefaultName()
+        if isinstance(fs, (str, os.PathLike)):
+            if not Path(fs).is_file():
+                raise InvalidArgumentError(f"`fs`: no such file {str(fs)!r}")
+            try:
+                storage = cv2.FileStorage(str(fs), cv2.FILE_STORAGE_READ)
+            except cv2.error as exc:
+                raise InvalidArgumentError(f"`fs`: {str(fs)!r} is not a readable FileStorage file: "
+                                           f"{exc.err}") from None
+            try:
+                self.read(storage, name)
+            finally:
+                storage.release()
+            return
+        if isinstance(fs, cv2.FileStorage):
+            node = fs.getNode(node_name)
+            if node.empty():
+                node = fs.root()
+                if node.getNode(self.PARAMS[0].name).empty():
+                    raise InvalidArgumentError(f"`fs` holds no node named {node_name!r}")
+        elif isinstance(fs, cv2.FileNode):
+            node = fs
+        else:
+            raise InvalidTypeError(
+                f"`fs` must be a path, a cv2.FileStorage or a cv2.FileNode, got {type(fs).__name__}"
+            )
+        values = {}
+        for p in self.PARAMS:
+            sub = node.getNode(p.name)
+            if sub.empty():
+                continue
+            if sub.isString():
+                text = sub.string()
+                values[p.name] = None if text == _NONE_MARK else text
+            elif sub.isInt():
+                values[p.name] = int(sub.real())
+            else:
+                values[p.name] = float(sub.real())
+            if isinstance(p.default, bool):
+                if values[p.name] is not None:
+                    values[p.name] = bool(values[p.name])
+            elif isinstance(p.default, float) and isinstance(values[p.name], int):
+                values[p.name] = float(values[p.name])
+        merged = dict(self._params)
+        merged.update(values)
+        self._init_params(merged)
+
+    # -- Python protocols ----------------------------------------------------------------
+    def __repr__(self) -> str:
+        changed = ", ".join(
+            f"{p.name}={self._params[p.name]!r}" for p in self.PARAMS
+            if self._params[p.name] != (p.check(p.name, p.default) if p.default is not None else None)
+        )
+        return f"{type(self).__name__}({changed})"
+
+    def __getstate__(self):
+        return {"params": dict(self._params)}
+
+    def __setstate__(self, state):
+        self._init_params(state["params"])
+
+
+def _make_getter(name):
+    def getter(self):
+        return self._params[name]
+
+    getter.__name__ = "get" + camel(name)
+    getter.__doc__ = f"Return ``{name}``."
+    return getter
+
+
+def _make_setter(name):
+    def setter(self, value):
+        old = self._params[name]
+        self._set_param(name, value)
+        try:
+            self._check_consistency()
+        except Exception:
+            self._params[name] = old
+            raise
+        self._on_params_changed()
+
+    setter.__name__ = "set" + camel(name)
+    setter.__doc__ = f"Set ``{name}`` (validated as in the constructor)."
+    return setter

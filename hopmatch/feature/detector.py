@@ -1,0 +1,199 @@
+"""The cv2 Feature2D-like DericheMoravecDetector (SPEC section 1)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import cv2
+import numpy as np
+
+from .._params import Configurable, Param, boolean, choice, integer, real
+from .._validate import as_gray_image, as_mask, as_points
+from ..errors import InvalidArgumentError, InvalidTypeError
+from .descriptor import gradient_windows, window_inside
+from .gradient import _deriche
+from .moravec import _k, _select_points
+
+
+def keypoints_from_arrays(points: np.ndarray, responses: np.ndarray, size: float):
+    """A tuple of ``cv2.KeyPoint`` (angle -1, octave 0, class_id -1) from (x, y) and responses."""
+    return tuple(
+        cv2.KeyPoint(x, y, size, -1.0, r, 0, -1)
+        for (x, y), r in zip(points.tolist(), responses.tolist())
+    )
+
+
+class DericheMoravecDetector(Configurable):
+    """Moravec interest points on a Canny-Deriche gradient-magnitude image.
+
+    A plain Python class with the interface of ``cv2.Feature2D``: ``detect``,
+    ``compute``, ``detectAndCompute``, ``descriptorSize``, ``write``/``read``... It returns
+    real ``cv2.KeyPoint`` objects (``pt`` in (x, y), ``size`` = ``window_size``,
+    ``response`` = V, ``angle`` -1, ``octave`` 0, ``class_id`` -1) and float32 descriptors
+    holding the mean-subtracted window of G around each point (eqs. 8-9).
+
+    Parameters
+    ----------
+    window_size : int
+        Odd side of the Moravec window of eq. 1 (paper: 5).
+    nms_size : int
+        Side of the neighbourhood in which a point must be the strict maximum (eq. 2;
+        paper: 20). It spans ``nms_size // 2`` pixels on each side.
+    threshold : float
+        Absolute threshold on V (eq. 2).
+    relative_threshold : float
+        Threshold as a fraction of the image's largest V; the larger of the two applies.
+    alpha, omega : float
+        Canny-Deriche filter parameters (``cv2.ximgproc.GradientDericheX/Y``).
+    on : {'gradient', 'intensity'}
+        Measure V (and cut descriptors) on the gradient magnitude, as the paper does, or
+        on grey levels.
+    max_features : int
+        Keep the strongest points only (0: keep all).
+    subpixel : bool
+        Refine positions by a quadratic fit of V (see ``docs/parameters.md``).
+    descriptor_size : int
+        Odd side of the descriptor window (eqs. 7-9).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.zeros((64, 64), np.uint8); img[20:44, 20:44] = 200
+    >>> det = DericheMoravecDetector.create(nms_size=9)
+    >>> kps, desc = det.detectAndCompute(img, None)
+    >>> len(kps) > 0, desc.shape[1] == det.descriptorSize(), desc.dtype
+    (True, True, dtype('float32'))
+    """
+
+    DEFAULT_NAME = "hopmatch_DericheMoravecDetector"
+    PARAMS = (
+        Param("window_size", 5, integer(1, 99, odd=True)),
+        Param("nms_size", 5, integer(1, 999)),
+        Param("threshold", 0.0, real(0.0)),
+        Param("relative_threshold", 0.0, real(0.0, 1.0)),
+        Param("alpha", 1.0, real(0.0, lo_open=True)),
+        Param("omega", 0.001, real(0.0)),
+        Param("on", "gradient", choice("gradient", "intensity")),
+        Param("max_features", 0, integer(0)),
+        Param("subpixel", True, boolean()),
+        Param("descriptor_size", 7, integer(1, 99, odd=True)),
+    )
+
+    def __init__(self, **params):
+        self._init_params(params)
+
+    # -- array-level API ------------------------------------------------------------------
+    def feature_image(self, image) -> np.ndarray:
+        """The float32 image G that points and descriptors are measured on."""
+        return self._feature_image(as_gray_image(image))
+
+    def _feature_image(self, gray: np.ndarray) -> np.ndarray:
+        p = self._params
+        if p["on"] == "gradient":
+            return _deriche(gray, p["alpha"], p["omega"])
+        return gray.astype(np.float32)
+
+    def detect_points(self, image, mask=None):
+        """Points as arrays: ``(points (N, 2) float32 (x, y), responses (N,), G)``."""
+        gray = as_gray_image(image)
+        mask = as_mask(mask, gray.shape)
+        g = self._feature_image(gray)
+        pts, resp = self._points_on(g, mask)
+        return pts, resp, g
+
+    def _points_on(self, g, mask):
+        p = self._params
+        radius = p["window_size"] // 2
+        v = _k.moravec_response(g, radius)
+        return _select_points(v, p["nms_size"], p["threshold"], p["relative_threshold"],
+                              radius + 1, p["max_features"], p["subpixel"], mask)
+
+    # -- cv2.Feature2D API ----------------------------------------------------------------
+    def detect(self, image, mask=None):
+        """Keypoints of ``image`` (a tuple of ``cv2.KeyPoint``), or of each image of a list."""
+        if isinstance(image, (list, tuple)):
+            masks = _per_image(mask, len(image))
+            return [self.detect(im, m) for im, m in zip(image, masks)]
+        pts, resp, _ = self.detect_points(image, mask)
+        return keypoints_from_arrays(pts, resp, float(self._params["window_size"]))
+
+    def compute(self, image, keypoints, descriptors=None):
+        """``(keypoints, descriptors)``: float32 rows (eqs. 8-9), one per kept keypoint.
+
+        Keypoints whose descriptor window leaves the image are dropped, as cv2 does.
+        Keypoints from any detector are accepted.
+        """
+        if isinstance(image, (list, tuple)):
+            if not isinstance(keypoints, (list, tuple)) or len(keypoints) != len(image):
+                raise InvalidArgumentError(
+                    "`keypoints` must be a list with one keypoint sequence per image "
+                    f"({len(image)} images)"
+                )
+            out = [self.compute(im, kp) for im, kp in zip(image, keypoints)]
+            return [o[0] for o in out], [o[1] for o in out]
+        g = self.feature_image(image)
+        return self._compute_on(g, keypoints)
+
+    def _compute_on(self, g, keypoints):
+        keypoints = _as_keypoint_tuple(keypoints)
+        pts = as_points(keypoints, "keypoints") if keypoints else np.zeros((0, 2), np.float32)
+        size = self._params["descriptor_size"]
+        keep = window_inside(pts, g.shape, size)
+        kept = tuple(kp for kp, k in zip(keypoints, keep.tolist()) if k)
+        return kept, gradient_windows(g, pts[keep], size)
+
+    def detectAndCompute(self, image, mask=None, descriptors=None,  # noqa: N802
+                         useProvidedKeypoints=False, keypoints=None):  # noqa: N803
+        """Detect and describe in one pass (G is computed once).
+
+        With ``useProvidedKeypoints=True``, describe ``keypoints`` instead of detecting.
+        """
+        gray = as_gray_image(image)
+        g = self._feature_image(gray)
+        if useProvidedKeypoints:
+            if keypoints is None:
+                raise InvalidArgumentError(
+                    "`keypoints` must be given when useProvidedKeypoints=True"
+                )
+            return self._compute_on(g, keypoints)
+        pts, resp = self._points_on(g, as_mask(mask, gray.shape))
+        kps = keypoints_from_arrays(pts, resp, float(self._params["window_size"]))
+        return self._compute_on(g, kps)
+
+    def empty(self) -> bool:
+        """Always False: the detector needs no training."""
+        return False
+
+    def descriptorSize(self) -> int:  # noqa: N802
+        """Length of a descriptor row: ``descriptor_size ** 2``."""
+        return self._params["descriptor_size"] ** 2
+
+    def descriptorType(self) -> int:  # noqa: N802
+        """``cv2.CV_32F``."""
+        return cv2.CV_32F
+
+    def defaultNorm(self) -> int:  # noqa: N802
+        """``cv2.NORM_L1``: eq. 7 is a mean absolute difference."""
+        return cv2.NORM_L1
+
+
+def _per_image(mask, n):
+    if mask is None:
+        return [None] * n
+    if not isinstance(mask, (list, tuple)) or len(mask) != n:
+        raise InvalidArgumentError(f"`mask` must be None or a list of {n} masks, one per image")
+    return list(mask)
+
+
+def _as_keypoint_tuple(keypoints):
+    if keypoints is None:
+        raise InvalidTypeError("`keypoints` must be a sequence of cv2.KeyPoint, got None")
+    if isinstance(keypoints, cv2.KeyPoint):
+        return (keypoints,)
+    if not isinstance(keypoints, Sequence):
+        raise InvalidTypeError(
+            f"`keypoints` must be a sequence of cv2.KeyPoint, got {type(keypoints).__name__}"
+        )
+    if not all(isinstance(kp, cv2.KeyPoint) for kp in keypoints):
+        raise InvalidTypeError("`keypoints` must hold only cv2.KeyPoint objects")
+    return tuple(keypoints)

@@ -1,0 +1,147 @@
+"""SPEC section 1, items 2-3: Moravec directional variance (eq. 1) and points (eq. 2)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .._kernels import moravec as _k
+from .._params import integer, real
+from .._validate import as_mask
+from ..errors import InvalidArgumentError, InvalidTypeError
+
+
+def _as_float_image(image, name="image") -> np.ndarray:
+    if not isinstance(image, np.ndarray):
+        raise InvalidTypeError(f"`{name}` must be a numpy array, got {type(image).__name__}")
+    if image.ndim != 2:
+        raise InvalidArgumentError(f"`{name}` must be a 2-dimensional array, got shape {image.shape}")
+    if image.dtype == np.bool_ or not np.issubdtype(image.dtype, np.number):
+        raise InvalidTypeError(f"`{name}` must be a numeric array, got dtype {image.dtype}")
+    out = np.ascontiguousarray(image, dtype=np.float32)
+    if not np.isfinite(out).all():
+        raise InvalidArgumentError(f"`{name}` contains NaN or infinite values")
+    return out
+
+
+def moravec_response(image, window_size: int = 5) -> np.ndarray:
+    """Moravec directional variance, eq. 1: ``V(p) = min_theta V_theta(p)``.
+
+    ``V_theta(p) = sum_{q in W(p)} (G(q) - G(q + u_theta))**2`` over a ``window_size``
+    square window, for the unit steps ``u_theta`` = (1, 0), (1, 1), (0, 1), (-1, 1).
+
+    Parameters
+    ----------
+    image : (H, W) ndarray
+        The image G the variance is measured on (gradient magnitude or grey levels).
+    window_size : int
+        Odd side of the window W (paper: 5).
+
+    Returns
+    -------
+    V : (H, W) float32 ndarray
+        Zero where the window or its shifted copy would leave the image (within
+        ``window_size // 2 + 1`` pixels of the border).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.zeros((9, 9), np.float32); img[4, 4] = 1.0
+    >>> v = moravec_response(img, window_size=3)
+    >>> float(v[4, 4]), float(v[0, 0])
+    (2.0, 0.0)
+    """
+    g = _as_float_image(image)
+    window_size = integer(1, odd=True)("window_size", window_size)
+    return _k.moravec_response(g, window_size // 2)
+
+
+def moravec_points(
+    response,
+    nms_size: int = 20,
+    threshold: float = 0.0,
+    relative_threshold: float = 0.0,
+    margin: int = 0,
+    max_features: int = 0,
+    subpixel: bool = False,
+    mask=None,
+):
+    """Moravec points, eq. 2: strict local maxima of ``V`` above a threshold.
+
+    ``p`` is kept iff ``V(p) > V(q)`` for every other ``q`` with
+    ``max(|qx - px|, |qy - py|) <= nms_size // 2`` (ties are not maxima) and
+    ``V(p) > max(threshold, relative_threshold * V.max())``.
+
+    Parameters
+    ----------
+    response : (H, W) ndarray
+        V from :func:`moravec_response`.
+    nms_size : int
+        Side of the neighbourhood; it spans ``nms_size // 2`` pixels on each side (the
+        paper's 20 x 20 is a 21 x 21 square centred on p).
+    threshold, relative_threshold : float
+        Absolute threshold, and a fraction of the largest response.
+    margin : int
+        Points closer than this to the border are never returned.
+    max_features : int
+        Keep only the strongest points (0: all).
+    subpixel : bool
+        Refine each point by a quadratic fit of V along x and along y (offsets within
+        half a pixel).
+    mask : (H, W) uint8 or bool ndarray, optional
+        Points are kept only where the mask is non-zero.
+
+    Returns
+    -------
+    points : (N, 2) float32 ndarray
+        (x, y) coordinates, strongest first.
+    responses : (N,) float32 ndarray
+        V at each point.
+    """
+    v = _as_float_image(response, "response")
+    nms_size = integer(1)("nms_size", nms_size)
+    threshold = real(0.0)("threshold", threshold)
+    relative_threshold = real(0.0, 1.0)("relative_threshold", relative_threshold)
+    margin = integer(0)("margin", margin)
+    max_features = integer(0)("max_features", max_features)
+    mask = as_mask(mask, v.shape)
+    return _select_points(v, nms_size, threshold, relative_threshold, margin, max_features,
+                          bool(subpixel), mask)
+
+
+def _select_points(v, nms_size, threshold, relative_threshold, margin, max_features, subpixel,
+                   mask):
+    """``moravec_points`` on validated arguments."""
+    radius = nms_size // 2
+    thr = max(threshold, relative_threshold * float(v.max())) if v.size else threshold
+    kernel = np.ones((2 * radius + 1, 2 * radius + 1), np.uint8)
+    vmax = cv2.dilate(v, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=-np.inf)
+    yx = _k.strict_maxima(v, vmax, radius, margin, np.float32(thr))
+    if mask is not None and len(yx):
+        yx = yx[mask[yx[:, 0], yx[:, 1]]]
+    resp = v[yx[:, 0], yx[:, 1]]
+    order = np.argsort(-resp, kind="stable")
+    if max_features:
+        order = order[:max_features]
+    yx, resp = yx[order], resp[order]
+    pts = yx[:, ::-1].astype(np.float32)
+    if subpixel and len(yx):
+        pts += _quadratic_offsets(v, yx)
+    return np.ascontiguousarray(pts), resp.astype(np.float32)
+
+
+def _quadratic_offsets(v, yx):
+    """Sub-pixel offsets (dx, dy) of maxima from a parabola through V at p - 1, p, p + 1."""
+    y, x = yx[:, 0], yx[:, 1]
+    h, w = v.shape
+    xm, xp = np.clip(x - 1, 0, w - 1), np.clip(x + 1, 0, w - 1)
+    ym, yp = np.clip(y - 1, 0, h - 1), np.clip(y + 1, 0, h - 1)
+    c = v[y, x].astype(np.float64)
+    out = np.zeros((len(yx), 2), np.float32)
+    for axis, (lo, hi) in enumerate(((v[y, xm], v[y, xp]), (v[ym, x], v[yp, x]))):
+        lo, hi = lo.astype(np.float64), hi.astype(np.float64)
+        den = lo - 2.0 * c + hi
+        with np.errstate(divide="ignore", invalid="ignore"):
+            off = np.where(den < 0, 0.5 * (lo - hi) / den, 0.0)
+        out[:, axis] = np.clip(off, -0.5, 0.5)
+    return out
