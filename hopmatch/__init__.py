@@ -8,6 +8,13 @@ from __future__ import annotations
 from importlib.metadata import PackageNotFoundError, version
 
 from . import errors
+from .matching import (
+    HopfieldMatcher,
+    NetworkResult,
+    StereoMatchResult,
+    hopfield_match,
+    match_stereo,
+)
 from .feature import (
     DericheMoravecDetector,
     deriche_gradient,
@@ -23,9 +30,25 @@ except PackageNotFoundError:  # running from a source tree that was not installe
 
 __all__ = [
     "DericheMoravecDetector",
+    "HopfieldMatcher",
+    "NetworkResult",
+    "StereoMatchResult",
+    "hopfield_match",
+    "match_stereo",
+    "warmup",
     "deriche_gradient",
     "errors",
     "gradient_windows",
     "moravec_points",
     "moravec_response",
 ]
+
+
+def warmup() -> float:
+    """Compile every Numba kernel now (on tiny inputs) and return the seconds it took.
+
+    With the on-disk cache warm (``cache=True``, the default) this only loads machine code.
+    """
+    from ._warmup import warmup as _warmup
+
+    return _warmup()

@@ -107,6 +107,8 @@ class Configurable:
 
     PARAMS: tuple[Param, ...] = ()
     DEFAULT_NAME: str = "hopmatch_Configurable"
+    #: Named parameter sets (a ``preset`` parameter selects one); explicit keywords win.
+    PRESETS: dict[str, dict[str, Any]] = {}
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -127,6 +129,10 @@ class Configurable:
             )
         self._params = {p.name: p.check(p.name, p.default) if p.default is not None else None
                         for p in self.PARAMS}
+        if "preset" in params:
+            self._set_param("preset", params["preset"])
+            for name, value in self.PRESETS.get(self._params["preset"], {}).items():
+                self._set_param(name, value)
         for name, value in params.items():
             self._set_param(name, value)
         self._check_consistency()
@@ -278,12 +284,15 @@ def _make_getter(name):
 
 def _make_setter(name):
     def setter(self, value):
-        old = self._params[name]
+        old = dict(self._params)
         self._set_param(name, value)
+        if name == "preset":  # a preset sets its whole parameter set
+            for key, preset_value in self.PRESETS.get(self._params["preset"], {}).items():
+                self._set_param(key, preset_value)
         try:
             self._check_consistency()
         except Exception:
-            self._params[name] = old
+            self._params = old
             raise
         self._on_params_changed()
 

@@ -1,0 +1,25 @@
+"""Compile (or load from cache) every Numba kernel on tiny inputs."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+
+def warmup() -> float:
+    from .feature.detector import DericheMoravecDetector
+    from .matching.matcher import hopfield_match
+
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(0)
+    img = (rng.random((48, 64)) * 255).astype(np.uint8)
+    det = DericheMoravecDetector(nms_size=3)
+    pts, _, g = det.detect_points(img)
+    pts = pts[(pts[:, 0] > 8) & (pts[:, 1] > 8) & (pts[:, 0] < 55) & (pts[:, 1] < 39)]
+    _, desc = det._compute_on(g, tuple(__import__("cv2").KeyPoint(float(x), float(y), 5.0)
+                                       for x, y in pts))
+    hopfield_match(pts, pts, desc, desc, max_disparity=4.0, record_energy=True)
+    binary = (rng.random((len(pts), 32)) * 255).astype(np.uint8)
+    hopfield_match(pts, pts, binary, binary, max_disparity=4.0)
+    return time.perf_counter() - t0

@@ -1,0 +1,180 @@
+"""The sparse Hopfield network of SPEC sections 2-4 as a pure function on arrays."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._kernels import network as _k
+from ..errors import BudgetExceededError
+from .disambiguate import disambiguate
+
+_EPS = 1e-6
+
+
+@dataclass(frozen=True)
+class NetworkResult:
+    """Everything the network computed for one pair.
+
+    Attributes
+    ----------
+    query_idx, train_idx : (M,) int32 ndarrays
+        The matches: left point ``query_idx[m]`` matches right point ``train_idx[m]``.
+    distances : (M,) float32 ndarray
+        ``1 / (1 + exp(u))`` of each match, u the neuron's final local field (eq. 12's
+        bracket): near 0 for a strongly supported match, 0.5 for an undecided one.
+    neuron_left, neuron_right : (N,) int32 ndarrays
+        The candidate pairs (neurons) of the network.
+    state : (N,) bool ndarray
+        Converged state of each neuron.
+    fields : (N,) float64 ndarray
+        Final local field u of each neuron.
+    similarity : (N,) float64 ndarray
+        Normalised similarity distance of each neuron (before weighting).
+    n_interactions : int
+        Number of stored interactions (ordered neuron pairs).
+    iterations, sweeps : int
+        Left points visited, and permutations started.
+    converged : bool
+        Whether the stopping rule was met before ``max_iterations``.
+    energy : float
+        Energy (eq. 11) of the converged state, with the final input bias.
+    energy_trace : (T,) float64 ndarray
+        Energy (eq. 11) after each iteration, if requested; else empty. With annealing
+        (``initial_bias``) each phase's energy uses that phase's input bias.
+    """
+
+    query_idx: np.ndarray
+    train_idx: np.ndarray
+    distances: np.ndarray
+    neuron_left: np.ndarray
+    neuron_right: np.ndarray
+    state: np.ndarray
+    fields: np.ndarray
+    similarity: np.ndarray
+    n_interactions: int
+    iterations: int
+    sweeps: int
+    converged: bool
+    energy: float
+    energy_trace: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
+                        nk: np.ndarray) -> np.ndarray:
+    """Normalised similarity distance of each candidate pair (eqs. 7-9).
+
+    Float descriptors: ``M_ik`` of eq. 7 (mean absolute difference of the mean-subtracted
+    windows) divided by the mean of the two windows' mean absolute values, so that it does
+    not depend on contrast: 0 for identical windows, about 1 for unrelated ones, at most 2.
+    This also serves any float descriptor (SIFT...). Binary (uint8) descriptors: the
+    fraction of differing bits, in [0, 1].
+    """
+    if desc_l.dtype == np.uint8:
+        return _k.hamming_fraction(desc_l, desc_r, ni, nk)
+    m = _k.mean_abs_difference(desc_l, desc_r, ni, nk)
+    scale_l = np.abs(desc_l).mean(axis=1, dtype=np.float64) if desc_l.shape[1] else np.zeros(len(desc_l))
+    scale_r = np.abs(desc_r).mean(axis=1, dtype=np.float64) if desc_r.shape[1] else np.zeros(len(desc_r))
+    return m / (0.5 * (scale_l[ni] + scale_r[nk]) + _EPS)
+
+
+def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max_neurons):
+    """Neurons: pairs with ``min_disparity <= xl - xr <= max_disparity`` and
+    ``|yl - yr| <= max_vertical`` (SPEC section 3's search window), sorted by (i, k).
+
+    Raises :class:`BudgetExceededError` before allocating more than ``max_neurons``.
+    """
+    order_r = np.argsort(right[:, 1], kind="stable")
+    ry = np.ascontiguousarray(right[order_r, 1])
+    args = (left, right, order_r, ry, np.float32(min_disparity), np.float32(max_disparity),
+            np.float32(max_vertical))
+    n = _k.count_candidates(*args)
+    if n > max_neurons:
+        raise BudgetExceededError(
+            f"the network would have {n} neurons (candidate pairs), more than max_neurons="
+            f"{max_neurons}; narrow the disparity range (min_disparity/max_disparity) or "
+            "max_vertical, use fewer keypoints, or raise max_neurons"
+        )
+    ni, nk, _ = _k.fill_candidates(*args, n)
+    return ni, nk
+
+
+def _starts(ni: np.ndarray, n_left: int) -> np.ndarray:
+    start = np.zeros(n_left + 1, dtype=np.int64)
+    np.cumsum(np.bincount(ni, minlength=n_left), out=start[1:])
+    return start
+
+
+def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
+                   record_energy: bool = False) -> NetworkResult:
+    """Match validated arrays with the network; ``p`` holds resolved matcher parameters.
+
+    ``left``/``right`` are (N, 2) float32 (x, y); ``mask`` an optional (Nl, Nr) bool array
+    (False forbids a neuron). See :class:`hopmatch.HopfieldMatcher` for the parameters.
+    """
+    nl, nr = len(left), len(right)
+    ni, nk = candidate_pairs(left, right, p["min_disparity"], p["max_disparity"],
+                             p["max_vertical"], p["max_neurons"])
+    if mask is not None and len(ni):
+        keep = mask[ni, nk]
+        ni, nk = ni[keep], nk[keep]
+    sim = similarity_distance(desc_l, desc_r, ni, nk) if len(ni) else np.zeros(0)
+    keep = np.ones(len(ni), dtype=bool)
+    if p["similarity_gate"] is not None:
+        keep &= sim <= p["similarity_gate"]
+    if p["max_candidates"] and len(ni):
+        order = np.lexsort((sim, ni))
+        rank = np.empty(len(ni), dtype=np.int64)
+        first = np.searchsorted(ni[order], ni[order])
+        rank[order] = np.arange(len(ni)) - first
+        keep &= rank < p["max_candidates"]
+    ni, nk, sim = ni[keep], nk[keep], sim[keep]
+    start = _starts(ni, nl)
+
+    order_l = np.argsort(left[:, 1], kind="stable")
+    ly = np.ascontiguousarray(left[order_l, 1])
+    nb_off, nb_idx = _k.neighbour_lists(left, order_l, ly, np.float32(p["neighbour_width"] / 2),
+                                        np.float32(p["neighbour_height"] / 2))
+    n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
+    if n_inter > p["max_interactions"]:
+        raise BudgetExceededError(
+            f"the network would have {n_inter} interactions, more than max_interactions="
+            f"{p['max_interactions']}; shrink neighbour_width/neighbour_height, narrow the "
+            "disparity range, use fewer keypoints, or raise max_interactions"
+        )
+    weighted = p["similarity_weight"] * sim
+    off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, weighted,
+                                       p["theta"], p["slope"], n_inter)
+    v = np.zeros(len(ni), dtype=np.uint8)
+    biases = ([p["initial_bias"]] if p["initial_bias"] is not None else []) + [p["input_bias"]]
+    iterations, sweeps, traces = 0, 0, []
+    for phase, bias in enumerate(biases):
+        v, it, sw, converged, trace = _k.run_network(
+            v, ni, nk, start, off, idx, w, nl, nr, p["uniqueness_weight"], bias,
+            np.uint64(p["seed"] + phase), p["stable_iterations"],
+            p["max_iterations"] - iterations, record_energy)
+        iterations, sweeps = iterations + it, sweeps + sw
+        traces.append(trace)
+    trace = np.concatenate(traces)
+    row = np.bincount(ni[v == 1], minlength=nl).astype(np.int64)
+    col = np.bincount(nk[v == 1], minlength=nr).astype(np.int64)
+    u = _k.local_fields(v, ni, nk, off, idx, w, row, col, p["uniqueness_weight"],
+                        p["input_bias"])
+    energy = _k.network_energy(v, ni, nk, off, idx, w, row, col, p["uniqueness_weight"],
+                               p["input_bias"])
+    dy = left[ni, 1].astype(np.float64) - right[nk, 1]
+    state = v.astype(bool)
+    if p["cross_check"]:
+        chosen = disambiguate(ni, nk, state, dy, u, p["vertical_threshold"])
+    else:
+        chosen = np.flatnonzero(state)
+    with np.errstate(over="ignore"):
+        dist = (1.0 / (1.0 + np.exp(u[chosen]))).astype(np.float32)
+    return NetworkResult(
+        query_idx=ni[chosen].astype(np.int32), train_idx=nk[chosen].astype(np.int32),
+        distances=dist, neuron_left=ni, neuron_right=nk, state=state, fields=u,
+        similarity=sim, n_interactions=int(n_inter), iterations=int(iterations),
+        sweeps=int(sweeps), converged=bool(converged), energy=float(energy),
+        energy_trace=trace,
+    )

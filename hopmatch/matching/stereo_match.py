@@ -1,0 +1,156 @@
+"""``match_stereo``: detect on both images and match, in one call."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import cv2
+import numpy as np
+
+from .._validate import as_gray_image, as_mask
+from ..errors import InvalidArgumentError
+from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
+from ..feature.descriptor import gradient_windows, window_inside
+from .matcher import HopfieldMatcher
+from .network import NetworkResult
+
+_DETECTOR_NAMES = {p.name for p in DericheMoravecDetector.PARAMS} - {"preset"}
+_MATCHER_NAMES = {p.name for p in HopfieldMatcher.PARAMS}
+
+
+@dataclass(eq=False)
+class StereoMatchResult:
+    """What :func:`match_stereo` found.
+
+    Attributes
+    ----------
+    points_left, points_right : (K, 2) float32 ndarrays
+        All detected (and described) points, (x, y).
+    query_idx, train_idx : (M,) int32 ndarrays
+        Matches as indices into ``points_left`` / ``points_right``.
+    distances : (M,) float32 ndarray
+        ``DMatch.distance`` of each match (see :class:`HopfieldMatcher`).
+    network : NetworkResult
+        Everything the network computed (fields, energy, energy trace...).
+    timings : dict
+        Seconds spent in ``detect_left``, ``detect_right``, ``match``.
+    """
+
+    points_left: np.ndarray
+    points_right: np.ndarray
+    responses_left: np.ndarray
+    responses_right: np.ndarray
+    query_idx: np.ndarray
+    train_idx: np.ndarray
+    distances: np.ndarray
+    network: NetworkResult
+    keypoint_size: float
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def matched_left(self) -> np.ndarray:
+        """(M, 2) float32: the left point of each match."""
+        return self.points_left[self.query_idx]
+
+    @property
+    def matched_right(self) -> np.ndarray:
+        """(M, 2) float32: the right point of each match."""
+        return self.points_right[self.train_idx]
+
+    @property
+    def disparities(self) -> np.ndarray:
+        """(M,) float32: ``x_left - x_right`` of each match."""
+        return (self.matched_left[:, 0] - self.matched_right[:, 0]).astype(np.float32)
+
+    @cached_property
+    def keypoints_left(self) -> tuple:
+        """Left keypoints as ``cv2.KeyPoint`` (built on first access)."""
+        return keypoints_from_arrays(self.points_left, self.responses_left, self.keypoint_size)
+
+    @cached_property
+    def keypoints_right(self) -> tuple:
+        """Right keypoints as ``cv2.KeyPoint`` (built on first access)."""
+        return keypoints_from_arrays(self.points_right, self.responses_right, self.keypoint_size)
+
+    @cached_property
+    def matches(self) -> tuple:
+        """The matches as ``cv2.DMatch`` (built on first access)."""
+        return tuple(
+            cv2.DMatch(q, t, d) for q, t, d in zip(
+                self.query_idx.tolist(), self.train_idx.tolist(), self.distances.tolist())
+        )
+
+
+def _describe(detector, image, mask):
+    gray = as_gray_image(image, "left" if mask[1] == "mask_left" else "right")
+    m = as_mask(mask[0], gray.shape, mask[1])
+    g = detector._feature_image(gray)
+    pts, resp = detector._points_on(g, m)
+    size = detector.getDescriptorSize()
+    keep = window_inside(pts, g.shape, size)
+    pts, resp = pts[keep], resp[keep]
+    return gray.shape, pts, resp, gradient_windows(g, pts, size)
+
+
+def match_stereo(left, right, *, mask_left=None, mask_right=None, record_energy: bool = False,
+                 **params) -> StereoMatchResult:
+    """Detect Moravec points on a rectified pair and match them with the Hopfield network.
+
+    Parameters
+    ----------
+    left, right : (H, W) or (H, W, 3|4) ndarray
+        The rectified pair (grey, BGR or BGRA; 8-bit, 16-bit or float), same height.
+    mask_left, mask_right : (H, W) uint8 or bool ndarray, optional
+        Where keypoints may be detected.
+    record_energy : bool
+        Keep the network energy after every iteration (``result.network.energy_trace``).
+    **params
+        Any :class:`DericheMoravecDetector` or :class:`HopfieldMatcher` parameter;
+        ``preset`` applies to both.
+
+    Returns
+    -------
+    StereoMatchResult
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(1)
+    >>> left = (rng.random((120, 160)) * 255).astype(np.uint8)
+    >>> right = np.roll(left, -6, axis=1)               # disparity 6 everywhere
+    >>> res = match_stereo(left, right, max_disparity=12)
+    >>> bool(np.median(res.disparities) == 6.0), len(res.matches) > 20
+    (True, True)
+    """
+    unknown = sorted(set(params) - _DETECTOR_NAMES - _MATCHER_NAMES)
+    if unknown:
+        raise InvalidArgumentError(
+            f"match_stereo got unknown parameter(s) {unknown}; valid parameters are "
+            f"{sorted(_DETECTOR_NAMES | _MATCHER_NAMES)}"
+        )
+    det_params = {k: v for k, v in params.items() if k in _DETECTOR_NAMES or k == "preset"}
+    match_params = {k: v for k, v in params.items() if k in _MATCHER_NAMES}
+    detector = DericheMoravecDetector(**det_params)
+    matcher = HopfieldMatcher(**match_params)
+
+    t0 = time.perf_counter()
+    shape_l, pts_l, resp_l, desc_l = _describe(detector, left, (mask_left, "mask_left"))
+    t1 = time.perf_counter()
+    shape_r, pts_r, resp_r, desc_r = _describe(detector, right, (mask_right, "mask_right"))
+    t2 = time.perf_counter()
+    if shape_l[0] != shape_r[0]:
+        raise InvalidArgumentError(
+            f"`left` and `right` must have the same height (a rectified pair), got "
+            f"{shape_l[0]} and {shape_r[0]}"
+        )
+    matcher.setPairInfo(pts_l, pts_r, shape_l[::-1], shape_r[::-1])
+    net = matcher.run(desc_l, desc_r, record_energy=record_energy)
+    t3 = time.perf_counter()
+    return StereoMatchResult(
+        points_left=pts_l, points_right=pts_r, responses_left=resp_l, responses_right=resp_r,
+        query_idx=net.query_idx, train_idx=net.train_idx, distances=net.distances,
+        network=net, keypoint_size=float(detector.getWindowSize()),
+        timings={"detect_left": t1 - t0, "detect_right": t2 - t1, "match": t3 - t2},
+    )
