@@ -185,7 +185,10 @@ def _imread(path, flags: int, what: str) -> np.ndarray:
     p = _existing_file(path, what)
     # np.fromfile + imdecode: no silent None for non-ASCII paths, and no stderr noise.
     data = np.fromfile(str(p), dtype=np.uint8)
-    img = cv2.imdecode(data, flags) if data.size else None
+    try:
+        img = cv2.imdecode(data, flags) if data.size else None
+    except cv2.error:
+        img = None
     if img is None:
         raise InvalidArgumentError(
             f"{what} file {str(p)!r} could not be decoded as an image "

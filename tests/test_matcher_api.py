@@ -1,0 +1,256 @@
+"""HopfieldMatcher and match_stereo: the cv2 DescriptorMatcher-like contract."""
+
+from __future__ import annotations
+
+import pickle
+
+import cv2
+import numpy as np
+import pytest
+
+import hopmatch
+from hopmatch import DericheMoravecDetector, HopfieldMatcher
+from hopmatch.errors import BudgetExceededError, InvalidArgumentError, InvalidTypeError, PairInfoError
+
+SHIFT = 7
+
+
+@pytest.fixture(scope="module")
+def pair():
+    """A textured image and a copy shifted left by SHIFT px: disparity SHIFT everywhere."""
+    rng = np.random.default_rng(11)
+    img = cv2.GaussianBlur((rng.random((160, 220)) * 255).astype(np.uint8), (0, 0), 1.2)
+    img = cv2.normalize(img, None, 0, 255, cv2.NORM_MINMAX)
+    right = np.zeros_like(img)
+    right[:, :-SHIFT] = img[:, SHIFT:]
+    return img, right
+
+
+@pytest.fixture(scope="module")
+def features(pair):
+    det = DericheMoravecDetector()
+    kl, dl = det.detectAndCompute(pair[0], None)
+    kr, dr = det.detectAndCompute(pair[1], None)
+    return kl, dl, kr, dr
+
+
+def _matcher(features, **params):
+    kl, dl, kr, dr = features
+    m = HopfieldMatcher.create(max_disparity=20, **params)
+    m.setPairInfo(kl, kr, (220, 160), (220, 160))
+    return m
+
+
+def test_match_returns_dmatches_with_the_true_disparity(features):
+    kl, dl, kr, dr = features
+    m = _matcher(features)
+    matches = m.match(dl, dr)
+    assert len(matches) > 0.5 * len(kl)
+    assert all(isinstance(x, cv2.DMatch) for x in matches)
+    q = [x.queryIdx for x in matches]
+    t = [x.trainIdx for x in matches]
+    assert q == sorted(q) and len(set(q)) == len(q) and len(set(t)) == len(t)
+    d = np.array([kl[a].pt[0] - kr[b].pt[0] for a, b in zip(q, t)])
+    assert np.mean(np.abs(d - SHIFT) <= 1) > 0.97
+    assert all(0.0 <= x.distance <= 1.0 for x in matches)
+
+
+def test_points_as_arrays_equal_keypoints(features):
+    kl, dl, kr, dr = features
+    a = _matcher(features).match(dl, dr)
+    m = HopfieldMatcher(max_disparity=20)
+    m.setPairInfo(cv2.KeyPoint_convert(kl), cv2.KeyPoint_convert(kr))
+    b = m.match(dl, dr)
+    assert [(x.queryIdx, x.trainIdx) for x in a] == [(x.queryIdx, x.trainIdx) for x in b]
+
+
+def test_results_work_with_cv2(pair, features):
+    kl, dl, kr, dr = features
+    m = _matcher(features)
+    matches = m.match(dl, dr)
+    img = cv2.drawMatches(pair[0], kl, pair[1], kr, matches, None)
+    assert img.shape[1] == 440
+    knn = m.knnMatch(dl, dr, k=2)
+    img2 = cv2.drawMatchesKnn(pair[0], kl, pair[1], kr, knn[:50], None)
+    assert img2.shape[0] == 160
+    pl = np.float32([kl[x.queryIdx].pt for x in matches])
+    pr = np.float32([kr[x.trainIdx].pt for x in matches])
+    F, inliers = cv2.findFundamentalMat(pl, pr, cv2.FM_RANSAC, 1.0, 0.999)
+    assert F.shape == (3, 3) and inliers.mean() > 0.9
+
+
+def test_knn_match_and_ratio_test(features):
+    kl, dl, kr, dr = features
+    m = _matcher(features)
+    knn = m.knnMatch(dl, dr, k=2)
+    assert len(knn) == len(kl)
+    assert all(len(row) == 2 for row in knn)
+    for row in knn:
+        assert row[0].distance <= row[1].distance
+        assert row[0].queryIdx == row[1].queryIdx
+    good = [a for a, b in knn if a.distance < 0.75 * b.distance]
+    d = np.array([kl[x.queryIdx].pt[0] - kr[x.trainIdx].pt[0] for x in good])
+    assert len(good) > 0.5 * len(kl) and np.mean(np.abs(d - SHIFT) <= 1) > 0.95
+    compact = m.knnMatch(dl, dr, k=1, compactResult=True)
+    assert all(len(row) == 1 for row in compact)
+
+
+def test_radius_match(features):
+    kl, dl, kr, dr = features
+    m = _matcher(features)
+    rows = m.radiusMatch(dl, dr, 0.2)
+    assert len(rows) == len(kl)
+    assert all(x.distance <= 0.2 for row in rows for x in row)
+    assert sum(len(r) for r in rows) > 0
+
+
+def test_mask_forbids_pairs(features):
+    kl, dl, kr, dr = features
+    m = _matcher(features)
+    full = m.match(dl, dr)
+    mask = np.ones((len(kl), len(kr)), np.uint8)
+    banned = full[0]
+    mask[banned.queryIdx, banned.trainIdx] = 0
+    out = m.match(dl, dr, mask)
+    assert (banned.queryIdx, banned.trainIdx) not in {(x.queryIdx, x.trainIdx) for x in out}
+    assert m.match(dl, dr, np.zeros((len(kl), len(kr)), bool)) == ()
+    assert m.isMaskSupported()
+
+
+def test_determinism_and_seed(features):
+    kl, dl, kr, dr = features
+    a = _matcher(features, seed=5).match(dl, dr)
+    b = _matcher(features, seed=5).match(dl, dr)
+    assert [(x.queryIdx, x.trainIdx, x.distance) for x in a] == \
+        [(x.queryIdx, x.trainIdx, x.distance) for x in b]
+
+
+def test_energy_and_trace(features):
+    kl, dl, kr, dr = features
+    m = _matcher(features, initial_bias=None)
+    res = m.run(dl, dr, record_energy=True)
+    assert res.energy_trace[0] == 0.0
+    assert np.all(np.diff(res.energy_trace) <= 1e-9)
+    assert m.energy() == pytest.approx(res.energy_trace[-1], abs=1e-6)
+    assert res.converged
+
+
+def test_pair_info_errors(features):
+    kl, dl, kr, dr = features
+    m = HopfieldMatcher()
+    with pytest.raises(PairInfoError, match="setPairInfo"):
+        m.match(dl, dr)
+    m.setPairInfo(kl, kr)
+    with pytest.raises(PairInfoError, match="disagree"):
+        m.match(dl[:-1], dr)
+    m.clearPairInfo()
+    assert m.empty()
+    with pytest.raises(InvalidArgumentError, match=r"\(N, 2\)"):
+        m.setPairInfo(np.zeros((5, 3)), np.zeros((5, 2)))
+    with pytest.raises(InvalidArgumentError, match="NaN"):
+        m.setPairInfo(np.full((5, 2), np.nan), np.zeros((5, 2)))
+    with pytest.raises(InvalidTypeError, match="queryImageSize"):
+        m.setPairInfo(kl, kr, "640x480")
+    m.setPairInfo(kl, kr)
+    with pytest.raises(InvalidArgumentError, match="same type"):
+        m.match(dl, dr[:, :10].copy())
+    with pytest.raises(InvalidArgumentError, match="mask"):
+        m.match(dl, dr, np.ones((3, 3), np.uint8))
+
+
+@pytest.mark.parametrize(
+    "kwargs, exc, words",
+    [
+        ({"preset": "fast"}, InvalidArgumentError, "'default', 'paper'"),
+        ({"theta": -1}, InvalidArgumentError, "theta"),
+        ({"slope": 0}, InvalidArgumentError, "slope"),
+        ({"seed": -3}, InvalidArgumentError, "seed"),
+        ({"max_iterations": 0}, InvalidArgumentError, "max_iterations"),
+        ({"max_disparity": "big"}, InvalidTypeError, "max_disparity"),
+        ({"neighbour_widht": 3}, InvalidArgumentError, "neighbour_widht"),
+    ],
+)
+def test_invalid_parameters(kwargs, exc, words):
+    with pytest.raises(exc, match=words):
+        HopfieldMatcher(**kwargs)
+
+
+def test_budget_refuses_before_allocating(features):
+    kl, dl, kr, dr = features
+    m = _matcher(features, max_neurons=10)
+    with pytest.raises(BudgetExceededError, match="max_neurons"):
+        m.match(dl, dr)
+    m = _matcher(features, max_interactions=10)
+    with pytest.raises(BudgetExceededError, match="max_interactions"):
+        m.match(dl, dr)
+
+
+def test_presets_and_accessors():
+    m = HopfieldMatcher(preset="paper")
+    assert m.getTheta() == 10.0 and m.getStableIterations() == 200
+    m.setPreset("default")
+    assert m.getTheta() == HopfieldMatcher().getTheta()
+    assert HopfieldMatcher(preset="paper", theta=3).getTheta() == 3.0
+    m.setMaxDisparity(64)
+    assert m.getMaxDisparity() == 64.0
+
+
+def test_housekeeping(features, tmp_path):
+    kl, dl, kr, dr = features
+    m = _matcher(features, theta=4.0)
+    twin = m.clone()
+    assert twin.get_params() == m.get_params() and not twin.empty()
+    assert m.clone(emptyTrainData=True).empty()
+    path = tmp_path / "m.yml"
+    m.write(path)
+    other = HopfieldMatcher()
+    other.read(path)
+    assert other.get_params() == m.get_params()
+    assert pickle.loads(pickle.dumps(m)).get_params() == m.get_params()
+    assert "." not in m.getDefaultName() and "theta=4.0" in repr(m)
+    m.clear()
+    assert m.empty() and m.getLastResult() is None
+
+
+def test_sift_descriptors_are_accepted(pair):
+    sift = cv2.SIFT_create(500)
+    kl, dl = sift.detectAndCompute(pair[0], None)
+    kr, dr = sift.detectAndCompute(pair[1], None)
+    m = HopfieldMatcher(max_disparity=20)
+    m.setPairInfo(kl, kr)
+    matches = m.match(dl, dr)
+    d = np.array([kl[x.queryIdx].pt[0] - kr[x.trainIdx].pt[0] for x in matches])
+    assert len(matches) > 50 and np.mean(np.abs(d - SHIFT) <= 1) > 0.95
+
+
+def test_orb_binary_descriptors_are_accepted(pair):
+    orb = cv2.ORB_create(800)
+    kl, dl = orb.detectAndCompute(pair[0], None)
+    kr, dr = orb.detectAndCompute(pair[1], None)
+    m = HopfieldMatcher(max_disparity=20)
+    m.setPairInfo(kl, kr)
+    matches = m.match(dl, dr)
+    d = np.array([kl[x.queryIdx].pt[0] - kr[x.trainIdx].pt[0] for x in matches])
+    assert len(matches) > 20 and np.mean(np.abs(d - SHIFT) <= 1) > 0.9
+
+
+def test_match_stereo(pair):
+    res = hopmatch.match_stereo(pair[0], pair[1], max_disparity=20)
+    assert len(res.matches) > 50
+    assert np.mean(np.abs(res.disparities - SHIFT) <= 1) > 0.97
+    assert res.matched_left.dtype == np.float32 and res.disparities.dtype == np.float32
+    assert all(isinstance(k, cv2.KeyPoint) for k in res.keypoints_left[:5])
+    assert set(res.timings) == {"detect_left", "detect_right", "match"}
+    with pytest.raises(InvalidArgumentError, match="same height"):
+        hopmatch.match_stereo(pair[0], pair[1][:-4])
+    with pytest.raises(InvalidArgumentError, match="unknown parameter"):
+        hopmatch.match_stereo(pair[0], pair[1], tehta=3)
+
+
+def test_empty_inputs_give_empty_results():
+    m = HopfieldMatcher()
+    m.setPairInfo(np.zeros((0, 2)), np.zeros((0, 2)))
+    assert m.match(np.zeros((0, 49), np.float32), np.zeros((0, 49), np.float32)) == ()
+    blank = np.zeros((60, 80), np.uint8)
+    res = hopmatch.match_stereo(blank, blank)
+    assert res.matches == () and res.disparities.shape == (0,)
