@@ -9,7 +9,7 @@ Conventions, as in cv2:
 
 * points are ``(N, 2)`` float32 arrays of ``(x, y)`` pixel coordinates (x = column,
   y = row), pixel centres at integer coordinates; wherever points are accepted, a sequence
-  of ``cv2.KeyPoint`` is accepted too;
+  of ``cv2.KeyPoint`` or cv2's ``(N, 1, 2)`` point arrays are accepted too;
 * the fundamental matrix ``F`` maps left points to right epipolar lines:
   ``[xr, yr, 1] @ F @ [xl, yl, 1] == 0``, as returned by
   ``cv2.findFundamentalMat(left_pts, right_pts)``;
@@ -87,6 +87,14 @@ def _cv2_call(what: str, func, *args, **kwargs):
     except cv2.error as exc:
         detail = getattr(exc, "err", None) or str(exc).strip().splitlines()[-1]
         raise InvalidArgumentError(f"{what} failed in OpenCV: {detail}") from exc
+
+
+def _as_points(points, name: str) -> np.ndarray:
+    """``as_points``, also accepting the ``(N, 1, 2)`` arrays many cv2 functions return
+    (``findChessboardCorners``, ``goodFeaturesToTrack``, ``projectPoints``...)."""
+    if isinstance(points, np.ndarray) and points.ndim == 3 and points.shape[1:] == (1, 2):
+        points = points.reshape(-1, 2)
+    return as_points(points, name)
 
 
 def _as_array(value, name: str) -> np.ndarray:
@@ -177,13 +185,15 @@ def _as_real(value, name: str, *, lo=None, hi=None, lo_open=False) -> float:
         lo_s = "-inf" if lo is None else f"{lo:g}"
         hi_s = "inf" if hi is None else f"{hi:g}"
         left = "(" if lo_open or lo is None else "["
-        raise InvalidArgumentError(f"`{name}` must be finite and in {left}{lo_s}, {hi_s}], got {v!r}")
+        raise InvalidArgumentError(
+            f"`{name}` must be finite and in {left}{lo_s}, {hi_s}], got {v!r}"
+        )
     return v
 
 
 def _as_pair(left_pts, right_pts, left_name="left_pts", right_name="right_pts"):
-    left = as_points(left_pts, left_name)
-    right = as_points(right_pts, right_name)
+    left = _as_points(left_pts, left_name)
+    right = _as_points(right_pts, right_name)
     if len(left) != len(right):
         raise InvalidArgumentError(
             f"`{left_name}` and `{right_name}` must have the same length (one row per match), "
@@ -268,7 +278,9 @@ def _atomic_path(path: Path, name: str = "path"):
     """
     folder = path.parent
     if not folder.is_dir():
-        raise InvalidArgumentError(f"`{name}`: the folder {str(folder)!r} of {str(path)!r} does not exist")
+        raise InvalidArgumentError(
+            f"`{name}`: the folder {str(folder)!r} of {str(path)!r} does not exist"
+        )
     suffix = "".join(path.suffixes[-2:]) if path.suffix == ".gz" else path.suffix
     while True:
         tmp = folder / f".{path.name}.{secrets.token_hex(4)}.tmp{suffix}"
@@ -370,8 +382,8 @@ def matched_points(query_kpts, train_kpts, matches) -> tuple[np.ndarray, np.ndar
     >>> left.tolist(), right.tolist(), left.dtype
     ([[10.0, 5.0], [20.0, 6.0]], [[4.0, 5.0], [7.0, 6.0]], dtype('float32'))
     """
-    query = as_points(query_kpts, "query_kpts")
-    train = as_points(train_kpts, "train_kpts")
+    query = _as_points(query_kpts, "query_kpts")
+    train = _as_points(train_kpts, "train_kpts")
     idx = _as_match_indices(matches)
     for col, pts, pname, attr in ((0, query, "query_kpts", "queryIdx"),
                                   (1, train, "train_kpts", "trainIdx")):
@@ -488,7 +500,7 @@ def sparse_disparity_image(left_pts, disparities, shape) -> np.ndarray:
     array([[nan,  3., nan, nan],
            [nan, nan,  5., nan]], dtype=float32)
     """
-    pts = as_points(left_pts, "left_pts")
+    pts = _as_points(left_pts, "left_pts")
     disp = _as_values(disparities, "disparities", len(pts))
     if (
         not isinstance(shape, (Sequence, np.ndarray))
@@ -620,7 +632,7 @@ def reproject_points(left_pts, disparities, Q) -> np.ndarray:
     >>> reproject_points([[320, 240], [420, 240]], [10, 50], Q).tolist()
     [[0.0, 0.0, 5.0], [0.20000000298023224, 0.0, 1.0]]
     """
-    pts = as_points(left_pts, "left_pts")
+    pts = _as_points(left_pts, "left_pts")
     disp = _as_values(disparities, "disparities", len(pts))
     q = _as_matrix(Q, "Q", (4, 4))
     if len(pts) == 0:
@@ -715,11 +727,15 @@ def write_ply(path, xyz, colors=None) -> int:
     path = _as_path(path)
     pts = _as_array_nonfinite(xyz, "xyz")
     if pts.ndim != 2 or pts.shape[1] != 3:
-        raise InvalidArgumentError(f"`xyz` must have shape (N, 3) holding (X, Y, Z), got shape {pts.shape}")
+        raise InvalidArgumentError(
+            f"`xyz` must have shape (N, 3) holding (X, Y, Z), got shape {pts.shape}"
+        )
     cols = None
     if colors is not None:
         if not isinstance(colors, np.ndarray):
-            raise InvalidTypeError(f"`colors` must be a uint8 numpy array or None, got {_describe(colors)}")
+            raise InvalidTypeError(
+                f"`colors` must be a uint8 numpy array or None, got {_describe(colors)}"
+            )
         if colors.dtype != np.uint8:
             raise InvalidTypeError(
                 f"`colors` must have dtype uint8 (RGB 0-255), got {colors.dtype}; convert "
@@ -854,8 +870,7 @@ class StereoCalibration:
 
     def __post_init__(self):
         checked = _check_calibration_fields(
-            {f.name: getattr(self, f.name) for f in dataclasses.fields(self)},
-            {f.name: f.name for f in dataclasses.fields(self)},
+            {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
         )
         for key, value in checked.items():
             object.__setattr__(self, key, value)
@@ -904,7 +919,9 @@ class StereoCalibration:
             )
         alpha = _check_alpha(alpha)
         if not isinstance(zero_disparity, (bool, np.bool_)):
-            raise InvalidTypeError(f"`zero_disparity` must be a bool, got {_describe(zero_disparity)}")
+            raise InvalidTypeError(
+                f"`zero_disparity` must be a bool, got {_describe(zero_disparity)}"
+            )
         flags = cv2.CALIB_ZERO_DISPARITY if zero_disparity else 0
         r1, r2, p1, p2, q, _, _ = _cv2_call(
             "cv2.stereoRectify with this calibration", cv2.stereoRectify,
@@ -946,7 +963,7 @@ class StereoCalibration:
             file, the missing keys and the keys it holds), or holds a malformed matrix.
         """
         path = _as_path(path)
-        values, found = _read_storage(path, "path")
+        values, spelled, found = _read_storage(path, "path")
         sources = {k: path for k in values}
         missing_rt = [k for k in ("R", "T") if k not in values]
         if extrinsics is None and missing_rt and "intrinsics" in path.name:
@@ -955,11 +972,12 @@ class StereoCalibration:
                 extrinsics = guess
         if extrinsics is not None:
             epath = _as_path(extrinsics, "extrinsics")
-            evalues, efound = _read_storage(epath, "extrinsics")
+            evalues, espelled, efound = _read_storage(epath, "extrinsics")
             for k, v in evalues.items():
                 if k not in values:
                     values[k] = v
                     sources[k] = epath
+                    spelled[k] = espelled[k]
             found = found + [f"{k} ({epath.name})" for k in efound]
         missing = [k for k in _REQUIRED if k not in values]
         if missing:
@@ -976,12 +994,15 @@ class StereoCalibration:
                 f"{files} holds no complete stereo calibration: missing {', '.join(missing)} "
                 f"(accepted keys: {spellings}); it holds: {', '.join(found) or 'nothing'}.{hint}"
             )
-        names = {k: f"{k} (read from {sources[k]})" for k in values}
-        try:
-            fields = _check_calibration_fields(values, names)
-        except (InvalidArgumentError, InvalidTypeError) as exc:
-            raise InvalidArgumentError(f"{path} holds a malformed calibration: {exc}") from None
-        return cls(**fields)
+        for field, value in values.items():
+            try:
+                _FIELD_CHECKS[field](value, field)
+            except (InvalidArgumentError, InvalidTypeError) as exc:
+                raise InvalidArgumentError(
+                    f"{sources[field]}: key {spelled[field]!r} (read as {field}) is malformed: "
+                    f"{exc}"
+                ) from None
+        return cls(**values)
 
     def to_file(self, path) -> None:
         """Write the calibration to an OpenCV FileStorage file, atomically.
@@ -1020,21 +1041,30 @@ class StereoCalibration:
                 fs.release()
 
 
-def _check_calibration_fields(values: dict, names: dict) -> dict:
-    """Coerce calibration fields; ``names[key]`` is what an error calls the field."""
-    out = dict(values)
-    out["K1"] = _as_camera_matrix(values["K1"], names["K1"])
-    out["K2"] = _as_camera_matrix(values["K2"], names["K2"])
-    out["D1"] = _as_distortion(values["D1"], names["D1"])
-    out["D2"] = _as_distortion(values["D2"], names["D2"])
-    out["R"] = _as_rotation(values["R"], names["R"])
-    out["T"] = _as_translation(values["T"], names["T"])
-    if values.get("image_size") is not None:
-        out["image_size"] = as_image_size(values["image_size"], names.get("image_size", "image_size"))
-    for key, shape in (("R1", (3, 3)), ("R2", (3, 3)), ("P1", (3, 4)), ("P2", (3, 4)),
-                       ("Q", (4, 4))):
-        if values.get(key) is not None:
-            out[key] = _as_matrix(values[key], names[key], shape)
+_FIELD_CHECKS = {
+    "K1": _as_camera_matrix,
+    "D1": _as_distortion,
+    "K2": _as_camera_matrix,
+    "D2": _as_distortion,
+    "R": _as_rotation,
+    "T": _as_translation,
+    "image_size": as_image_size,
+    "R1": lambda v, n: _as_matrix(v, n, (3, 3)),
+    "R2": lambda v, n: _as_matrix(v, n, (3, 3)),
+    "P1": lambda v, n: _as_matrix(v, n, (3, 4)),
+    "P2": lambda v, n: _as_matrix(v, n, (3, 4)),
+    "Q": lambda v, n: _as_matrix(v, n, (4, 4)),
+}
+
+
+def _check_calibration_fields(values: dict) -> dict:
+    """Coerce calibration fields (None stays None for the optional ones)."""
+    out = {}
+    for key, value in values.items():
+        if value is None and key not in _REQUIRED:
+            out[key] = None
+        else:
+            out[key] = _FIELD_CHECKS[key](value, key)
     return out
 
 
@@ -1067,8 +1097,8 @@ def _read_node(node, what: str):
     raise InvalidArgumentError(f"{what} is not a matrix or a number")
 
 
-def _read_storage(path: Path, name: str) -> tuple[dict, list[str]]:
-    """The calibration values found in one FileStorage file, and the keys it holds."""
+def _read_storage(path: Path, name: str) -> tuple[dict, dict, list[str]]:
+    """The calibration values found in one FileStorage file, their spellings, its keys."""
     if not path.is_file():
         raise InvalidArgumentError(f"`{name}`: no such file {str(path)!r}")
     if path.stat().st_size == 0:
@@ -1088,16 +1118,18 @@ def _read_storage(path: Path, name: str) -> tuple[dict, list[str]]:
             )
         root = fs.root()
         found = list(root.keys()) if root.isMap() else []
-        values = {}
+        values, spelled = {}, {}
         for field, spellings in CALIBRATION_KEYS.items():
             for key in spellings:
                 if key in found:
                     values[field] = _read_node(fs.getNode(key), f"key {key!r} of {path}")
+                    spelled[field] = key
                     break
         for key in _SIZE_KEYS:
             if key in found:
                 size = _read_node(fs.getNode(key), f"key {key!r} of {path}").ravel()
                 values["image_size"] = _size_from_values(size, f"key {key!r} of {path}")
+                spelled["image_size"] = key
                 break
         else:
             if "image_width" in found and "image_height" in found:
@@ -1106,14 +1138,17 @@ def _read_storage(path: Path, name: str) -> tuple[dict, list[str]]:
                 values["image_size"] = _size_from_values(
                     np.array([w.ravel()[0], h.ravel()[0]]), f"image_width/image_height of {path}"
                 )
-        return values, found
+                spelled["image_size"] = "image_width/image_height"
+        return values, spelled, found
     finally:
         fs.release()
 
 
 def _size_from_values(size: np.ndarray, what: str) -> tuple[int, int]:
     if size.size != 2 or not np.all(size == np.round(size)) or np.any(size <= 0):
-        raise InvalidArgumentError(f"{what} must be [width, height] as positive integers, got {size.tolist()}")
+        raise InvalidArgumentError(
+            f"{what} must be [width, height] as positive integers, got {size.tolist()}"
+        )
     return int(size[0]), int(size[1])
 
 
@@ -1135,7 +1170,7 @@ def _as_calibration(calibration, name: str = "calibration") -> StereoCalibration
 
 def rectify(left, right, calibration, alpha: float = 0.0, *,
             interpolation: int = cv2.INTER_LINEAR):
-    """Rectify a calibrated image pair: ``cv2.stereoRectify`` + ``initUndistortRectifyMap`` + ``remap``.
+    """Rectify a calibrated pair: ``cv2.stereoRectify``, ``initUndistortRectifyMap``, ``remap``.
 
     Parameters
     ----------
@@ -1206,7 +1241,7 @@ def rectify_points(points, calibration, which: str = "left") -> np.ndarray:
     points : (N, 2) float32 ndarray
         ``(x, y)`` in the rectified image.
     """
-    pts = as_points(points, "points")
+    pts = _as_points(points, "points")
     cal = _as_calibration(calibration)
     if which not in ("left", "right"):
         raise InvalidArgumentError(f"`which` must be one of 'left', 'right'; got {which!r}")
@@ -1329,8 +1364,8 @@ def epipolar_distance_matrix(left_pts, right_pts, F, *, reduce: str = "mean",
     >>> epipolar_distance_matrix([[10, 5]], [[3, 5], [3, 8]], F).tolist()
     [[0.0, 3.0]]
     """
-    left = as_points(left_pts, "left_pts")
-    right = as_points(right_pts, "right_pts")
+    left = _as_points(left_pts, "left_pts")
+    right = _as_points(right_pts, "right_pts")
     f = _as_fundamental(F)
     op = _reduce_option(reduce)
     if isinstance(max_pairs, bool) or not isinstance(max_pairs, numbers.Integral) or max_pairs < 0:

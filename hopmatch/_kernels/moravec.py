@@ -1,7 +1,7 @@
 """Kernels of SPEC section 1: Moravec directional variance (eq. 1) and selection (eq. 2).
 
-Both are compiled with ``exact=True`` (no fastmath): the tests compare them bit for bit with
-the loop-based references in ``tests/naive.py``.
+Both are compiled with ``exact=True`` (no fastmath) and work on exact integer sums: the tests
+compare them bit for bit with the loop-based references in ``tests/naive.py``.
 """
 
 from __future__ import annotations
@@ -15,48 +15,50 @@ DIRECTIONS = np.array([[1, 0], [1, 1], [0, 1], [-1, 1]], dtype=np.int64)
 
 
 @jit(exact=True)
-def moravec_response(g, radius):
+def moravec_response(gq, radius, scale):
     """Eq. 1: ``V(p) = min_theta sum_{q in W(p)} (G(q) - G(q + u_theta))**2``.
 
-    ``g`` is a float32 (H, W) image, the window is (2 radius + 1) squared. The sum over the
-    window is taken row by row (each row summed left to right, then the row sums top to
-    bottom) in float64. Pixels closer than ``radius + 1`` to the border, whose window or
-    shifted window would leave the image, get V = 0. Returns float32 (H, W).
+    ``gq`` is G quantised to integers (int64, ``|gq| <= 2**19``, see
+    ``hopmatch.feature.moravec.quantise``), so every window sum is an exact integer whatever
+    the order of the additions: the sums slide along rows and columns in O(1) per pixel and
+    still equal the plain double loop bit for bit. ``V = scale * min_theta S_theta`` is
+    returned as float32 (H, W); pixels closer than ``radius + 1`` to the border, whose window
+    or shifted window would leave the image, get V = 0.
     """
-    h, w = g.shape
+    h, w = gq.shape
     out = np.zeros((h, w), dtype=np.float32)
     m = radius + 1
     if h < 2 * m + 1 or w < 2 * m + 1:
         return out
-    best = np.full((h, w), np.inf)
-    diff = np.zeros((h, w))
-    rows = np.zeros((h, w))
-    for t in range(4):
-        ux = DIRECTIONS[t, 0]
-        uy = DIRECTIONS[t, 1]
-        # squared differences for every q that some window uses: rows/cols 1 .. n-2
-        for y in range(1, h - 1):
+    k = 2 * radius + 1
+    ring = np.zeros((4, k, w), dtype=np.int64)  # window-row sums of the last k rows
+    acc = np.zeros((4, w), dtype=np.int64)  # their column sums: the window sums
+    drow = np.zeros(w, dtype=np.int64)
+    new = np.zeros(w, dtype=np.int64)
+    for yy in range(1, h - 1):
+        slot = yy % k
+        for t in range(4):
+            ux = DIRECTIONS[t, 0]
+            uy = DIRECTIONS[t, 1]
             for x in range(1, w - 1):
-                d = np.float64(g[y, x]) - np.float64(g[y + uy, x + ux])
-                diff[y, x] = d * d
-        # horizontal sums over the window's columns
-        for y in range(1, h - 1):
+                d = gq[yy, x] - gq[yy + uy, x + ux]
+                drow[x] = d * d
+            s = np.int64(0)
+            for x in range(m - radius, m + radius + 1):
+                s += drow[x]
+            new[m] = s
+            for x in range(m + 1, w - m):
+                s += drow[x + radius] - drow[x - 1 - radius]
+                new[x] = s
             for x in range(m, w - m):
-                s = 0.0
-                for dx in range(-radius, radius + 1):
-                    s += diff[y, x + dx]
-                rows[y, x] = s
-        # vertical sums of the row sums, and the minimum over directions
-        for y in range(m, h - m):
-            for x in range(m, w - m):
-                s = 0.0
-                for dy in range(-radius, radius + 1):
-                    s += rows[y + dy, x]
-                if s < best[y, x]:
-                    best[y, x] = s
-    for y in range(m, h - m):
+                acc[t, x] += new[x] - ring[t, slot, x]
+                ring[t, slot, x] = new[x]
+        y = yy - radius  # the output row whose window's last row is yy
+        if y < m or y >= h - m:
+            continue
         for x in range(m, w - m):
-            out[y, x] = best[y, x]
+            v = min(min(acc[0, x], acc[1, x]), min(acc[2, x], acc[3, x]))
+            out[y, x] = np.float32(np.float64(v) * scale)
     return out
 
 

@@ -12,7 +12,7 @@ from .._validate import as_gray_image, as_mask, as_points
 from ..errors import InvalidArgumentError, InvalidTypeError
 from .descriptor import gradient_windows, window_inside
 from .gradient import _deriche
-from .moravec import _k, _select_points
+from .moravec import _select_points, response
 
 
 def keypoints_from_arrays(points: np.ndarray, responses: np.ndarray, size: float):
@@ -110,10 +110,9 @@ class DericheMoravecDetector(Configurable):
 
     def _points_on(self, g, mask):
         p = self._params
-        radius = p["window_size"] // 2
-        v = _k.moravec_response(g, radius)
+        v = response(g, p["window_size"])
         return _select_points(v, p["nms_size"], p["threshold"], p["relative_threshold"],
-                              radius + 1, p["max_features"], p["subpixel"], mask)
+                              p["window_size"] // 2 + 1, p["max_features"], p["subpixel"], mask)
 
     # -- cv2.Feature2D API ----------------------------------------------------------------
     def detect(self, image, mask=None):

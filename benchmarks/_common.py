@@ -1,0 +1,39 @@
+"""Shared helpers of the benchmarks: timing, the motorcycle pair, machine description."""
+
+from __future__ import annotations
+
+import os
+import platform
+import time
+
+import cv2
+import numpy as np
+
+
+def single_thread() -> None:
+    """Pin OpenCV to one thread (Numba kernels are single-threaded already)."""
+    cv2.setNumThreads(1)
+
+
+def best_time(fn, repeat: int = 7, warmup: int = 1) -> float:
+    """Best wall time of ``fn()`` over ``repeat`` runs, in seconds (after ``warmup`` runs)."""
+    for _ in range(warmup):
+        fn()
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def motorcycle_bgr():
+    from hopmatch.datasets import load_motorcycle
+
+    scene = load_motorcycle()
+    return scene.left, scene.right, scene.disparity
+
+
+def machine() -> str:
+    return (f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+            f"Python {platform.python_version()}, OpenCV {cv2.__version__}, NumPy {np.__version__}")
