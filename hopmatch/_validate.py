@@ -88,7 +88,8 @@ def as_points(points, name: str) -> np.ndarray:
     """Return keypoints or an ``(N, 2)`` array as a C-contiguous float32 ``(N, 2)`` (x, y) array.
 
     Accepts a sequence of ``cv2.KeyPoint`` or anything ``np.asarray`` turns into ``(N, 2)``
-    numbers. Coordinates must be finite.
+    or ``(N, 1, 2)`` numbers (as ``cv2.goodFeaturesToTrack`` returns). Coordinates must be
+    finite.
     """
     if isinstance(points, cv2.KeyPoint):
         points = [points]
@@ -114,9 +115,12 @@ def as_points(points, name: str) -> np.ndarray:
             raise InvalidTypeError(
                 f"`{name}` must hold numbers (x, y), got dtype {arr.dtype}"
             )
+        if arr.ndim == 3 and arr.shape[1:] == (1, 2):  # cv2's (N, 1, 2) point arrays
+            arr = arr.reshape(-1, 2)
         if arr.ndim != 2 or arr.shape[1] != 2:
             raise InvalidArgumentError(
-                f"`{name}` must have shape (N, 2) holding (x, y), got shape {arr.shape}"
+                f"`{name}` must have shape (N, 2) (or cv2's (N, 1, 2)) holding (x, y), "
+                f"got shape {arr.shape}"
             )
     arr = np.ascontiguousarray(arr, dtype=np.float32)
     if not np.isfinite(arr).all():

@@ -89,14 +89,6 @@ def _cv2_call(what: str, func, *args, **kwargs):
         raise InvalidArgumentError(f"{what} failed in OpenCV: {detail}") from exc
 
 
-def _as_points(points, name: str) -> np.ndarray:
-    """``as_points``, also accepting the ``(N, 1, 2)`` arrays many cv2 functions return
-    (``findChessboardCorners``, ``goodFeaturesToTrack``, ``projectPoints``...)."""
-    if isinstance(points, np.ndarray) and points.ndim == 3 and points.shape[1:] == (1, 2):
-        points = points.reshape(-1, 2)
-    return as_points(points, name)
-
-
 def _as_array(value, name: str) -> np.ndarray:
     """``value`` as a float64 array of finite numbers (any shape)."""
     if value is None or isinstance(value, (str, bytes)):
@@ -192,8 +184,8 @@ def _as_real(value, name: str, *, lo=None, hi=None, lo_open=False) -> float:
 
 
 def _as_pair(left_pts, right_pts, left_name="left_pts", right_name="right_pts"):
-    left = _as_points(left_pts, left_name)
-    right = _as_points(right_pts, right_name)
+    left = as_points(left_pts, left_name)
+    right = as_points(right_pts, right_name)
     if len(left) != len(right):
         raise InvalidArgumentError(
             f"`{left_name}` and `{right_name}` must have the same length (one row per match), "
@@ -382,8 +374,8 @@ def matched_points(query_kpts, train_kpts, matches) -> tuple[np.ndarray, np.ndar
     >>> left.tolist(), right.tolist(), left.dtype
     ([[10.0, 5.0], [20.0, 6.0]], [[4.0, 5.0], [7.0, 6.0]], dtype('float32'))
     """
-    query = _as_points(query_kpts, "query_kpts")
-    train = _as_points(train_kpts, "train_kpts")
+    query = as_points(query_kpts, "query_kpts")
+    train = as_points(train_kpts, "train_kpts")
     idx = _as_match_indices(matches)
     for col, pts, pname, attr in ((0, query, "query_kpts", "queryIdx"),
                                   (1, train, "train_kpts", "trainIdx")):
@@ -500,7 +492,7 @@ def sparse_disparity_image(left_pts, disparities, shape) -> np.ndarray:
     array([[nan,  3., nan, nan],
            [nan, nan,  5., nan]], dtype=float32)
     """
-    pts = _as_points(left_pts, "left_pts")
+    pts = as_points(left_pts, "left_pts")
     disp = _as_values(disparities, "disparities", len(pts))
     if (
         not isinstance(shape, (Sequence, np.ndarray))
@@ -632,7 +624,7 @@ def reproject_points(left_pts, disparities, Q) -> np.ndarray:
     >>> reproject_points([[320, 240], [420, 240]], [10, 50], Q).tolist()
     [[0.0, 0.0, 5.0], [0.20000000298023224, 0.0, 1.0]]
     """
-    pts = _as_points(left_pts, "left_pts")
+    pts = as_points(left_pts, "left_pts")
     disp = _as_values(disparities, "disparities", len(pts))
     q = _as_matrix(Q, "Q", (4, 4))
     if len(pts) == 0:
@@ -1241,7 +1233,7 @@ def rectify_points(points, calibration, which: str = "left") -> np.ndarray:
     points : (N, 2) float32 ndarray
         ``(x, y)`` in the rectified image.
     """
-    pts = _as_points(points, "points")
+    pts = as_points(points, "points")
     cal = _as_calibration(calibration)
     if which not in ("left", "right"):
         raise InvalidArgumentError(f"`which` must be one of 'left', 'right'; got {which!r}")
@@ -1364,8 +1356,8 @@ def epipolar_distance_matrix(left_pts, right_pts, F, *, reduce: str = "mean",
     >>> epipolar_distance_matrix([[10, 5]], [[3, 5], [3, 8]], F).tolist()
     [[0.0, 3.0]]
     """
-    left = _as_points(left_pts, "left_pts")
-    right = _as_points(right_pts, "right_pts")
+    left = as_points(left_pts, "left_pts")
+    right = as_points(right_pts, "right_pts")
     f = _as_fundamental(F)
     op = _reduce_option(reduce)
     if isinstance(max_pairs, bool) or not isinstance(max_pairs, numbers.Integral) or max_pairs < 0:

@@ -1,0 +1,94 @@
+"""Scale benchmark: a 2964 x 2000 pair, 1k to 20k keypoints per image.
+
+Run: ``python benchmarks/scale.py`` (single thread; each configuration runs in a fresh
+process so that its peak memory, ``ru_maxrss``, is its own).
+
+The pair is scikit-image's motorcycle upsampled 4x (bicubic) to the full Middlebury 2014
+size, 2964 x 2000. ``max_features`` sets the keypoint count. Prints time and peak memory
+against keypoint count, the growth exponent of time (a log-log fit: 1.0 is linear), and the
+ratio to SIFT ``detectAndCompute`` on the same two images (goal: <= 0.30x within 1.5 GB).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+
+CHILD = r"""
+import json, resource, sys, time
+sys.path.insert(0, {here!r})
+import cv2
+from _common import motorcycle_bgr, single_thread
+single_thread()
+import hopmatch
+left, right, _ = motorcycle_bgr()
+left = cv2.resize(cv2.cvtColor(left, cv2.COLOR_BGR2GRAY), (2964, 2000), interpolation=cv2.INTER_CUBIC)
+right = cv2.resize(cv2.cvtColor(right, cv2.COLOR_BGR2GRAY), (2964, 2000), interpolation=cv2.INTER_CUBIC)
+mode, n = sys.argv[1], int(sys.argv[2])
+if mode == "sift":
+    sift = cv2.SIFT_create()
+    sift.detectAndCompute(left[:200, :200], None)
+    t0 = time.perf_counter()
+    kl, _ = sift.detectAndCompute(left, None)
+    kr, _ = sift.detectAndCompute(right, None)
+    out = dict(seconds=time.perf_counter() - t0, keypoints=(len(kl) + len(kr)) // 2)
+else:
+    hopmatch.warmup()
+    params = dict(max_features=n, nms_size=3, max_disparity=260)
+    hopmatch.match_stereo(left[:300, :400], right[:300, :400], **params)
+    t0 = time.perf_counter()
+    res = hopmatch.match_stereo(left, right, **params)
+    out = dict(seconds=time.perf_counter() - t0,
+               keypoints=(len(res.points_left) + len(res.points_right)) // 2,
+               matches=int(len(res.query_idx)), neurons=int(len(res.network.neuron_left)),
+               interactions=res.network.n_interactions, timings=res.timings)
+out["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(json.dumps(out))
+"""
+
+
+def run(mode: str, n: int = 0) -> dict:
+    code = CHILD.format(here=str(HERE))
+    proc = subprocess.run([sys.executable, "-c", code, mode, str(n)], capture_output=True,
+                          text=True, check=True)
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    sift = run("sift")
+    print("## Scale: motorcycle upsampled to 2964 x 2000, single thread\n")
+    print(f"SIFT detectAndCompute on both images: {sift['seconds'] * 1e3:.0f} ms, "
+          f"{sift['keypoints']} keypoints per image, peak {sift['peak_mb']:.0f} MB\n")
+    print("| keypoints / image | matches | neurons | interactions | total ms | match ms | "
+          "peak MB | hopmatch / SIFT |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    rows = []
+    for n in (1000, 2500, 5000, 10000, 15000, 20000):
+        r = run("hopmatch", n)
+        rows.append(r)
+        print(f"| {r['keypoints']} | {r['matches']} | {r['neurons']} | {r['interactions']} | "
+              f"{r['seconds'] * 1e3:.0f} | {r['timings']['match'] * 1e3:.1f} | "
+              f"{r['peak_mb']:.0f} | "
+              f"{r['seconds'] / sift['seconds']:.2f} |")
+    k = np.log([r["keypoints"] for r in rows])
+    for label, key in (("total time", None), ("match stage", "match"), ("interactions", "n")):
+        if key is None:
+            y = [r["seconds"] for r in rows]
+        elif key == "match":
+            y = [r["timings"]["match"] for r in rows]
+        else:
+            y = [r["interactions"] for r in rows]
+        slope = np.polyfit(k, np.log(y), 1)[0]
+        print(f"Growth of {label} with keypoints (log-log slope; 1.0 = linear): {slope:.2f}")
+    print("\nThe total is dominated by the per-pixel work (Deriche gradient and Moravec response\n"
+          "on 5.9 Mpixel images), which does not depend on the keypoint count.")
+
+
+if __name__ == "__main__":
+    main()
