@@ -242,7 +242,7 @@ def local_fields(v, ni, nk, off, idx, w, row, col, unique_w, bias):
         s = 0.0
         for e in range(off[p], off[p + 1]):
             if v[idx[e]]:
-                s += w[e]
+                s += np.float64(w[e])
         u[p] = s - unique_w * (row[ni[p]] - v[p] + col[nk[p]] - v[p]) + bias
     return u
 
@@ -257,7 +257,7 @@ def network_energy(v, ni, nk, off, idx, w, row, col, unique_w, bias):
             active += 1
             for e in range(off[p], off[p + 1]):
                 if v[idx[e]]:
-                    pair += w[e]
+                    pair += np.float64(w[e])
     unique = 0.0
     for i in range(row.shape[0]):
         unique += row[i] * (row[i] - 1)

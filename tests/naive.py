@@ -1,0 +1,401 @@
+"""Slow, obviously correct references for every hopmatch kernel.
+
+Written for readability, not speed: plain Python loops over pixels, points and neurons,
+one equation of SPEC.md at a time. The tests compare the Numba kernels with these
+functions, bit for bit where the kernel is compiled ``exact=True`` (Moravec, eqs. 1-2) and
+to a stated tolerance elsewhere.
+
+Only keep problems small: the dense network builds the full ``N x N`` matrix T over the
+``N`` candidate neurons.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hopmatch._kernels import network as _kn
+
+#: The unit steps u_theta of eq. 1 as (dx, dy): 0, 45, 90 and 135 degrees.
+DIRECTIONS = ((1, 0), (1, 1), (0, 1), (-1, 1))
+
+
+# ======================================================================================
+# SPEC section 1: Moravec points
+# ======================================================================================
+
+
+def directional_variances(g, window_size):
+    """Eq. 1 for each direction separately: ``V_theta(p)`` as a (4, H, W) float64 array.
+
+    ``V_theta(p) = sum_{q in W(p)} (G(q) - G(q + u_theta))**2``. The window sum is taken
+    as the kernel documents it: each window row summed left to right, then the row sums
+    top to bottom, all in float64. Pixels within ``radius + 1`` of the border get 0.
+    """
+    g = np.asarray(g, dtype=np.float32)
+    h, w = g.shape
+    r = window_size // 2
+    m = r + 1
+    out = np.zeros((4, h, w), dtype=np.float64)
+    for t, (ux, uy) in enumerate(DIRECTIONS):
+        for y in range(m, h - m):
+            for x in range(m, w - m):
+                total = 0.0
+                for qy in range(y - r, y + r + 1):
+                    row = 0.0
+                    for qx in range(x - r, x + r + 1):
+                        d = float(g[qy, qx]) - float(g[qy + uy, qx + ux])
+                        row += d * d
+                    total += row
+                out[t, y, x] = total
+    return out
+
+
+def quantise(g, levels_log2=19):
+    """G on the power-of-two grid the Moravec kernel works on.
+
+    The grid step is ``2**-e`` with ``e`` the largest integer such that
+    ``max|G| * 2**e <= 2**levels_log2``. Returns ``(gq, step)``: the integer multiples
+    ``gq = round(G * 2**e)`` (int64, ties to even) and ``step = 2**-e``; ``gq * step`` is
+    the quantised image, exactly representable in float32. A blank image gives zeros and
+    step 1.
+    """
+    g = np.asarray(g, dtype=np.float32).astype(np.float64)
+    gmax = float(np.abs(g).max()) if g.size else 0.0
+    if gmax == 0.0:
+        return np.zeros(g.shape, dtype=np.int64), 1.0
+    limit = 2.0**levels_log2
+    e = 0
+    while gmax * 2.0**e > limit:
+        e -= 1
+    while gmax * 2.0 ** (e + 1) <= limit:
+        e += 1
+    return np.rint(g * 2.0**e).astype(np.int64), 2.0**-e
+
+
+def moravec_response(g, window_size):
+    """Eq. 1: ``V(p) = min_theta V_theta(p)`` (float64 sums, float32 result).
+
+    On a quantised image (``gq * step`` of :func:`quantise`) every sum is exact, so any
+    order of summation gives these bits."""
+    vt = directional_variances(g, window_size)
+    h, w = vt.shape[1:]
+    out = np.zeros((h, w), dtype=np.float32)
+    r = window_size // 2
+    m = r + 1
+    for y in range(m, h - m):
+        for x in range(m, w - m):
+            out[y, x] = min(vt[0, y, x], vt[1, y, x], vt[2, y, x], vt[3, y, x])
+    return out
+
+
+def strict_maxima(v, radius, margin, threshold):
+    """Eq. 2: (y, x) of the pixels with ``V(p) > threshold`` and ``V(p) > V(q)`` for every
+    other pixel q of the image with ``max(|qx - px|, |qy - py|) <= radius``, at least
+    ``margin`` pixels from the border; raster order, (N, 2) int64.
+
+    No dilation: each pixel is compared with each of its neighbours directly. The threshold
+    is compared in float32, as V is.
+    """
+    v = np.asarray(v, dtype=np.float32)
+    threshold = np.float32(threshold)
+    h, w = v.shape
+    found = []
+    for y in range(margin, h - margin):
+        for x in range(margin, w - margin):
+            c = v[y, x]
+            if not c > threshold:
+                continue
+            is_max = True
+            for qy in range(y - radius, y + radius + 1):
+                for qx in range(x - radius, x + radius + 1):
+                    if (qy, qx) == (y, x) or not (0 <= qy < h and 0 <= qx < w):
+                        continue
+                    if not c > v[qy, qx]:
+                        is_max = False
+            if is_max:
+                found.append((y, x))
+    return np.array(found, dtype=np.int64).reshape(-1, 2)
+
+
+def gradient_windows(g, pts, size):
+    """Eqs. 8-9 for integer points: ``V_i(x) = G(x) - mean_{W_i}(G)``, the window in raster
+    order, float64 (N, size * size)."""
+    g = np.asarray(g, dtype=np.float32)
+    r = size // 2
+    out = np.zeros((len(pts), size * size), dtype=np.float64)
+    for n, (x, y) in enumerate(pts):
+        x, y = int(x), int(y)
+        values = []
+        for dy in range(-r, r + 1):
+            for dx in range(-r, r + 1):
+                values.append(float(g[y + dy, x + dx]))
+        mean = sum(values) / len(values)
+        out[n] = [value - mean for value in values]
+    return out
+
+
+# ======================================================================================
+# SPEC sections 2-3: the network, dense
+# ======================================================================================
+
+
+def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical):
+    """Every (i, k) with ``min_disparity <= xl - xr <= max_disparity`` and
+    ``|yl - yr| <= max_vertical``, in (i, k) order; differences in float32 as the points."""
+    left = np.asarray(left, dtype=np.float32)
+    right = np.asarray(right, dtype=np.float32)
+    dmin, dmax, vmax = (np.float32(min_disparity), np.float32(max_disparity),
+                        np.float32(max_vertical))
+    pairs = []
+    for i in range(len(left)):
+        for k in range(len(right)):
+            d = left[i, 0] - right[k, 0]
+            dy = abs(left[i, 1] - right[k, 1])
+            if dmin <= d <= dmax and dy <= vmax:
+                pairs.append((i, k))
+    return pairs
+
+
+def neighbours(points, width, height):
+    """For each point i, the sorted list of the other points j with ``|xj - xi| <= width/2``
+    and ``|yj - yi| <= height/2``."""
+    points = np.asarray(points, dtype=np.float32)
+    hw, hh = np.float32(width / 2), np.float32(height / 2)
+    out = []
+    for i in range(len(points)):
+        out.append([
+            j for j in range(len(points))
+            if j != i and abs(points[j, 0] - points[i, 0]) <= hw
+            and abs(points[j, 1] - points[i, 1]) <= hh
+        ])
+    return out
+
+
+def similarity(a, b, eps=1e-6):
+    """Normalised eq. 7 distance between two descriptor rows (see
+    ``hopmatch.matching.network.similarity_distance``): for uint8 rows the fraction of
+    differing bits; for float rows ``mean|a - b|`` over the mean of ``mean|a|`` and
+    ``mean|b|``."""
+    if a.dtype == np.uint8:
+        bits = 0
+        for x, y in zip(a.tolist(), b.tolist()):
+            bits += bin(x ^ y).count("1")
+        return bits / (8 * len(a))
+    a = [float(x) for x in a]
+    b = [float(x) for x in b]
+    n = len(a)
+    m = sum(abs(x - y) for x, y in zip(a, b)) / n
+    scale_a = sum(abs(x) for x in a) / n
+    scale_b = sum(abs(y) for y in b) / n
+    return m / (0.5 * (scale_a + scale_b) + eps)
+
+
+def compatibility(x, theta, slope):
+    """Eq. 5: ``C = 2 / (1 + exp(slope (X - theta))) - 1``."""
+    z = slope * (x - theta)
+    if z > 700.0:  # exp overflows; the limit is -1
+        return -1.0
+    return 2.0 / (1.0 + np.exp(z)) - 1.0
+
+
+def dense_network(left, right, desc_l, desc_r, p, weight_dtype=np.float32):
+    """The network of eqs. 5, 6, 10 and 11 built directly, with dense matrices.
+
+    Neurons are the candidate pairs (i, k) of the search window, minus those whose
+    similarity exceeds ``p["similarity_gate"]`` and, with ``p["max_candidates"]``, all but
+    each left point's most similar ones (ties: lower k). Returns a dict with
+
+    - ``ni, nk`` (N,): the neurons, in (i, k) order; ``start`` (Nl + 1,) their offsets;
+    - ``sim`` (N,): the normalised similarity of each neuron;
+    - ``adj`` (N, N) bool: (i, k) and (j, l) interact through C (j a neighbour of i,
+      j != i, l != k);
+    - ``C`` (N, N): ``C_ik,jl`` of eq. 5 where ``adj``, else 0, rounded to ``weight_dtype``
+      (the kernels store float32 weights);
+    - ``T`` (N, N): ``C - w (delta_ij + delta_kl)`` with a zero diagonal (eq. 11),
+      w = ``p["uniqueness_weight"]``.
+    """
+    left = np.asarray(left, dtype=np.float32)
+    right = np.asarray(right, dtype=np.float32)
+    pairs = candidate_pairs(left, right, p["min_disparity"], p["max_disparity"],
+                            p["max_vertical"])
+    sims = {pair: similarity(desc_l[pair[0]], desc_r[pair[1]]) for pair in pairs}
+    if p["similarity_gate"] is not None:
+        pairs = [pair for pair in pairs if sims[pair] <= p["similarity_gate"]]
+    if p["max_candidates"]:
+        kept = []
+        for i in range(len(left)):
+            mine = sorted((pair for pair in pairs if pair[0] == i),
+                          key=lambda pair: (sims[pair], pair[1]))
+            kept += sorted(mine[: p["max_candidates"]])
+        pairs = kept
+    n = len(pairs)
+    ni = np.array([i for i, _ in pairs], dtype=np.int64)
+    nk = np.array([k for _, k in pairs], dtype=np.int64)
+    sim = np.array([sims[pair] for pair in pairs], dtype=np.float64)
+    start = np.zeros(len(left) + 1, dtype=np.int64)
+    for i in ni:
+        start[i + 1] += 1
+    start = np.cumsum(start)
+    nbrs = neighbours(left, p["neighbour_width"], p["neighbour_height"])
+    lam = p["similarity_weight"]
+    uw = p["uniqueness_weight"]
+
+    def dist(a, b):
+        return float(np.hypot(float(a[0]) - float(b[0]), float(a[1]) - float(b[1])))
+
+    adj = np.zeros((n, n), dtype=bool)
+    c = np.zeros((n, n), dtype=np.float64)
+    t = np.zeros((n, n), dtype=np.float64)
+    for a, (i, k) in enumerate(pairs):
+        for b, (j, l) in enumerate(pairs):
+            if a == b:
+                continue
+            if j in nbrs[i] and l != k:
+                d_ik = dist(left[i], right[k])                       # eq. 6
+                d_jl = dist(left[j], right[l])
+                big_d = dist(left[i], left[j]) - dist(right[k], right[l])
+                x = abs(d_ik - d_jl) + abs(big_d) + lam * sim[a] + lam * sim[b]  # eq. 10
+                adj[a, b] = True
+                c[a, b] = float(weight_dtype(compatibility(x, p["theta"], p["slope"])))
+            t[a, b] = c[a, b] - uw * ((i == j) + (k == l))
+    return {"ni": ni, "nk": nk, "start": start, "sim": sim, "adj": adj, "C": c, "T": t}
+
+
+def energy(t, bias, v):
+    """Eq. 11: ``E = -1/2 V^T T V - I sum V``."""
+    v = np.asarray(v, dtype=np.float64)
+    return float(-0.5 * v @ t @ v - bias * v.sum())
+
+
+def kernel_sweeps(start, seed):
+    """The kernel's visit order, sweep after sweep (an endless generator of arrays).
+
+    Regenerated with the kernel's own SplitMix64 ``shuffle``, as ``run_network`` does: the
+    left points that have neurons, in increasing order, shuffled in place once per sweep
+    (each sweep shuffles the previous permutation), from the state ``seed``.
+    """
+    n_left = len(start) - 1
+    perm = np.array([i for i in range(n_left) if start[i + 1] > start[i]], dtype=np.int64)
+    state = np.uint64(seed)
+    while True:
+        state = np.uint64(_kn.shuffle(perm, state))  # numba returns a Python int
+        yield perm.copy()
+
+
+def dense_run(t, bias, start, v0, sweeps, stable_iterations, max_iterations):
+    """Eq. 13, one neuron at a time, on the dense T, replaying ``sweeps`` (an iterable of
+    visit orders: lists of left points).
+
+    Each visit (one *iteration*) updates the visited point's neurons in increasing k:
+    ``u = T V + I``; ``V <- 1`` if u > 0, ``0`` if u < 0, unchanged if u = 0. Stops as
+    ``run_network`` documents: a sweep that changed nothing, ``stable_iterations``
+    consecutive unchanged visits (if > 0), or ``max_iterations`` visits.
+
+    Returns ``(v, iterations, sweeps, converged, energies)`` with ``energies[t]`` the energy
+    (eq. 11, recomputed from scratch) after visit t, index 0 the start.
+    """
+    v = np.array(v0, dtype=np.uint8)
+    energies = [energy(t, bias, v)]
+    iterations = 0
+    n_sweeps = 0
+    unchanged_run = 0
+    converged = False
+    for order in sweeps:
+        if iterations >= max_iterations or len(order) == 0:
+            break
+        n_sweeps += 1
+        sweep_changed = False
+        stop = False
+        for i in order:
+            if iterations >= max_iterations:
+                break
+            changed = False
+            for a in range(start[i], start[i + 1]):
+                u = float(t[a] @ v.astype(np.float64)) + bias
+                if u > 0 and v[a] == 0:
+                    v[a] = 1
+                    changed = True
+                elif u < 0 and v[a] == 1:
+                    v[a] = 0
+                    changed = True
+            iterations += 1
+            energies.append(energy(t, bias, v))
+            if changed:
+                sweep_changed = True
+                unchanged_run = 0
+            else:
+                unchanged_run += 1
+                if stable_iterations > 0 and unchanged_run >= stable_iterations:
+                    converged = True
+                    stop = True
+                    break
+        if stop:
+            break
+        if not sweep_changed:
+            converged = True
+            break
+    return v, iterations, n_sweeps, converged, np.array(energies)
+
+
+def dense_match(left, right, desc_l, desc_r, p):
+    """The whole network of ``run_hopfield_network`` on dense matrices: the network of
+    :func:`dense_network`, then one phase per input bias (``initial_bias`` if not None, then
+    ``input_bias``) seeded ``seed + phase``, each phase starting from the previous state.
+
+    Returns ``(net, v, iterations, energies_per_phase)``.
+    """
+    net = dense_network(left, right, desc_l, desc_r, p)
+    v = np.zeros(len(net["ni"]), dtype=np.uint8)
+    biases = ([p["initial_bias"]] if p["initial_bias"] is not None else []) + [p["input_bias"]]
+    iterations = 0
+    phases = []
+    for phase, bias in enumerate(biases):
+        v, it, _, _, energies = dense_run(
+            net["T"], bias, net["start"], v, kernel_sweeps(net["start"], p["seed"] + phase),
+            p["stable_iterations"], p["max_iterations"] - iterations)
+        iterations += it
+        phases.append(energies)
+    return net, v, iterations, phases
+
+
+# ======================================================================================
+# SPEC section 4: disambiguation
+# ======================================================================================
+
+
+def singular_choice(group, dy, score, threshold):
+    """Section 4 in one direction, with loops.
+
+    Groups with one active pair are singular and keep it. Then, repeatedly:
+    ``Ybar`` = mean ``dy`` of the kept pairs (0 if none); in every still-multiple group, the
+    pair closest to ``Ybar`` (ties: higher score, then lower index) is kept if it lies
+    strictly within ``threshold`` of ``Ybar``, and its group becomes singular; stop when no
+    group joins.
+    """
+    n = len(group)
+    keep = np.zeros(n, dtype=bool)
+    members: dict[int, list[int]] = {}
+    for a in range(n):
+        members.setdefault(int(group[a]), []).append(a)
+    kept_dy = []
+    pending = []
+    for g, pairs in members.items():
+        if len(pairs) == 1:
+            keep[pairs[0]] = True
+            kept_dy.append(float(dy[pairs[0]]))
+        else:
+            pending.append(g)
+    while pending:
+        ybar = sum(kept_dy) / len(kept_dy) if kept_dy else 0.0
+        joined = []
+        for g in pending:
+            best = min(members[g], key=lambda a: (abs(float(dy[a]) - ybar), -float(score[a]), a))
+            if abs(float(dy[best]) - ybar) < threshold:
+                joined.append(best)
+        if not joined:
+            break
+        for a in joined:
+            keep[a] = True
+            kept_dy.append(float(dy[a]))
+            pending.remove(int(group[a]))
+    return keep

@@ -1,0 +1,318 @@
+"""Moravec kernels (SPEC section 1, eqs. 1-2) and the window descriptor (eqs. 8-9) against the
+loop references of ``tests/naive.py``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import naive
+from hopmatch._kernels import moravec as _k
+from hopmatch.feature import gradient_windows, moravec_points, moravec_response
+
+
+def _quantised(img):
+    """The image on the kernel's power-of-two grid (naive.quantise), as float32."""
+    gq, step = naive.quantise(img)
+    out = (gq * step).astype(np.float32)
+    assert np.array_equal(out.astype(np.float64), gq * step)       # exact in float32
+    return out
+
+
+def reference_response(img, window_size):
+    """Eq. 1 of the reference on the quantised image."""
+    return naive.moravec_response(_quantised(img), window_size)
+
+
+def _random_image(rng, shape, dtype):
+    if dtype == np.uint8:
+        return rng.integers(0, 256, shape).astype(np.uint8)
+    if dtype == np.uint16:
+        return rng.integers(0, 65536, shape).astype(np.uint16)
+    return (rng.normal(size=shape) * 37.0).astype(np.float32)
+
+
+class TestMoravecResponse:
+    @pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
+    @pytest.mark.parametrize("window_size", [1, 3, 5, 7])
+    def test_bit_identical_to_reference(self, dtype, window_size):
+        rng = np.random.default_rng(window_size * 7 + np.dtype(dtype).itemsize)
+        img = _random_image(rng, (19, 23), dtype)
+        got = moravec_response(img, window_size=window_size)
+        want = reference_response(img, window_size)
+        assert got.dtype == np.float32 and got.shape == img.shape
+        assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+        if dtype != np.float32:
+            # integer images lie on the grid already: eq. 1 on G itself, bit for bit
+            raw = naive.moravec_response(img.astype(np.float32), window_size)
+            assert np.array_equal(got.view(np.uint32), raw.view(np.uint32))
+        # the interior is not trivially zero, the border band is
+        m = window_size // 2 + 1
+        assert (got[m:-m, m:-m] > 0).any()
+        assert not got[:m].any() and not got[-m:].any()
+        assert not got[:, :m].any() and not got[:, -m:].any()
+
+    def test_kernel_directly(self):
+        rng = np.random.default_rng(1)
+        g = np.ascontiguousarray(rng.uniform(0, 1, (16, 13)).astype(np.float32))
+        gq, step = naive.quantise(g)
+        assert np.abs(gq).max() <= 2**19 and np.abs(gq).max() > 2**18
+        for radius in (0, 1, 2, 3):
+            got = _k.moravec_response(gq, radius, step * step)
+            want = naive.moravec_response((gq * step).astype(np.float32), 2 * radius + 1)
+            assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+
+    @pytest.mark.parametrize("scale", [1e-6, 1.0, 3.0, 1e6])
+    def test_quantisation_is_fine(self, scale):
+        """On a float image the grid changes V by a tiny fraction of its range."""
+        rng = np.random.default_rng(8)
+        img = (rng.normal(size=(20, 20)) * scale).astype(np.float32)
+        got = moravec_response(img, 5).astype(np.float64)
+        exact = naive.moravec_response(img, 5).astype(np.float64)
+        assert np.abs(got - exact).max() <= 1e-5 * exact.max()
+        assert not np.array_equal(_quantised(img), img)
+
+    def test_wide_dynamic_range(self):
+        rng = np.random.default_rng(9)
+        img = (rng.normal(size=(19, 23)) * 10.0 ** rng.integers(-4, 6, (19, 23)))
+        img = img.astype(np.float32)
+        got = moravec_response(img, 3)
+        assert np.array_equal(got, reference_response(img, 3))
+
+    @pytest.mark.parametrize("shape", [(1, 1), (3, 3), (5, 7), (7, 5), (2, 9), (8, 8)])
+    @pytest.mark.parametrize("window_size", [1, 3, 5, 7])
+    def test_small_images(self, shape, window_size):
+        rng = np.random.default_rng(shape[0] * 31 + shape[1])
+        img = rng.uniform(0, 255, shape).astype(np.float32)
+        got = moravec_response(img, window_size=window_size)
+        want = reference_response(img, window_size)
+        assert got.shape == shape and got.dtype == np.float32
+        assert np.array_equal(got, want)
+        if min(shape) < 2 * (window_size // 2 + 1) + 1:
+            assert not got.any()
+
+    def test_small_image_with_interior(self):
+        # 5 x 7 with a 1-pixel window keeps an interior: V is computed there
+        img = np.arange(35, dtype=np.float32).reshape(5, 7) ** 2
+        got = moravec_response(img, window_size=1)
+        assert got[1:4, 1:6].all()
+        assert np.array_equal(got, naive.moravec_response(img, 1))   # integers: on the grid
+
+    def test_known_value(self):
+        img = np.zeros((9, 9), np.float32)
+        img[4, 4] = 1.0
+        v = moravec_response(img, window_size=3)
+        # every direction sees the impulse twice (as q and as q + u)
+        assert v[4, 4] == 2.0
+        assert np.array_equal(v, naive.moravec_response(img, 3))
+
+    def test_directions_are_the_documented_ones(self):
+        # an image constant along x: V_0 = 0 everywhere, so V = 0
+        col = np.random.default_rng(0).uniform(0, 9, (12, 1)).astype(np.float32)
+        assert not moravec_response(np.repeat(col, 10, axis=1), 3).any()
+        # constant along the 135-degree step (-1, 1): G(x, y) = f(x + y)
+        f = np.random.default_rng(1).uniform(0, 9, 50).astype(np.float32)
+        yy, xx = np.mgrid[:12, :12]
+        assert not moravec_response(f[xx + yy], 3).any()
+        # constant along the 45-degree step (1, 1): G = f(x - y)
+        assert not moravec_response(f[xx - yy + 12], 3).any()
+        # constant along (2, 1), which is none of the four steps: V > 0 inside
+        v = moravec_response(f[xx - 2 * yy + 30], 3)
+        assert (v[2:-2, 2:-2] > 0).all()
+
+    def test_blank_image(self):
+        for value in (0.0, 17.0):
+            img = np.full((20, 20), value, np.float32)
+            v = moravec_response(img, 5)
+            assert np.isfinite(v).all() and not v.any()
+            pts, resp = moravec_points(v, nms_size=5)
+            assert pts.shape == (0, 2) and pts.dtype == np.float32
+            assert resp.shape == (0,) and resp.dtype == np.float32
+
+    def test_transposed_image(self):
+        """Under transposition V_0 and V_90 swap and V_45 maps onto itself; V_135 becomes
+        the variance along (1, -1), i.e. V_135 of the window shifted by (1, -1). Assert the
+        directional maps of the reference and the kernel's response on the transpose."""
+        rng = np.random.default_rng(5)
+        # on the kernel's grid every sum is exact, so the maps compare exactly
+        img = _quantised(rng.uniform(0, 100, (17, 21)).astype(np.float32))
+        r = 2
+        m = r + 1
+        vt = naive.directional_variances(img, 2 * r + 1)
+        vt_t = naive.directional_variances(img.T.copy(), 2 * r + 1)
+        assert np.array_equal(vt_t[0], vt[2].T)
+        assert np.array_equal(vt_t[2], vt[0].T)
+        assert np.array_equal(vt_t[1], vt[1].T)
+        # V'_135 at p^T = V_135 at p + (dx, dy) = (1, -1), where both are defined
+        h, w = img.shape
+        for y in range(m + 1, h - m):
+            for x in range(m, w - m - 1):
+                assert vt_t[3, x, y] == vt[3, y - 1, x + 1]
+        # the kernel on the transpose is the min of these maps (not simply V.T)
+        want = np.zeros(img.T.shape)
+        want[m:-m, m:-m] = np.minimum.reduce(
+            [vt[2].T, vt[0].T, vt[1].T, vt_t[3]])[m:-m, m:-m]
+        got = moravec_response(img.T, 2 * r + 1)
+        assert np.array_equal(got, want.astype(np.float32))
+        assert not np.array_equal(got, moravec_response(img, 2 * r + 1).T)
+        # wherever the 135-degree variance is not the minimum on either side, V' = V.T
+        v = moravec_response(img, 2 * r + 1)
+        sym = np.zeros_like(v, dtype=bool)
+        sym[m:-m, m:-m] = True
+        sym &= vt[3] > vt[:3].min(axis=0)
+        sym &= (vt_t[3] > vt_t[:3].min(axis=0)).T
+        assert sym.sum() > 20
+        assert np.array_equal(got.T[sym], v[sym])
+
+    def test_thread_safety(self):
+        from concurrent.futures import ThreadPoolExecutor
+
+        rng = np.random.default_rng(2)
+        img = rng.uniform(0, 1, (64, 64)).astype(np.float32)
+        want = moravec_response(img, 5)
+        with ThreadPoolExecutor(4) as ex:
+            outs = list(ex.map(lambda _: moravec_response(img, 5), range(8)))
+        assert all(np.array_equal(o, want) for o in outs)
+
+
+class TestStrictMaxima:
+    @pytest.mark.parametrize("radius", [0, 1, 2, 4])
+    @pytest.mark.parametrize("margin", [0, 3])
+    def test_equals_reference(self, radius, margin):
+        rng = np.random.default_rng(radius * 10 + margin)
+        # quantised values so that ties happen often
+        v = rng.integers(0, 6, (23, 19)).astype(np.float32)
+        for threshold in (0.0, 2.0, 4.5):
+            pts, resp = moravec_points(v, nms_size=2 * radius + 1, threshold=threshold,
+                                       margin=margin)
+            want = naive.strict_maxima(v, radius, margin, threshold)
+            got = {(int(y), int(x)) for x, y in pts}
+            assert got == {tuple(p) for p in want.tolist()}
+            assert len(pts) == len(want)
+            assert (resp > threshold).all()
+
+    def test_kernel_raster_order(self):
+        rng = np.random.default_rng(3)
+        v = rng.normal(size=(30, 30)).astype(np.float32)
+        import cv2
+
+        vmax = cv2.dilate(v, np.ones((5, 5), np.uint8), borderType=cv2.BORDER_CONSTANT,
+                          borderValue=-np.inf)
+        got = _k.strict_maxima(v, vmax, 2, 1, np.float32(-10.0))
+        want = naive.strict_maxima(v, 2, 1, -10.0)
+        assert got.dtype == np.int64 and len(want) > 5
+        assert np.array_equal(got, want)
+
+    def test_plateau_is_not_a_maximum(self):
+        v = np.zeros((15, 15), np.float32)
+        v[5:7, 5:7] = 3.0                    # a 2 x 2 plateau: no strict maximum
+        v[11, 11] = 2.0                      # an isolated peak
+        pts, resp = moravec_points(v, nms_size=3)
+        assert pts.tolist() == [[11.0, 11.0]] and resp.tolist() == [2.0]
+        assert naive.strict_maxima(v, 1, 0, 0.0).tolist() == [[11, 11]]
+        v[6, 6] = 3.5                        # now the plateau has a strict top
+        pts, _ = moravec_points(v, nms_size=3)
+        assert [6.0, 6.0] in pts.tolist()
+
+    def test_equal_neighbour_far_away_in_window(self):
+        v = np.zeros((20, 20), np.float32)
+        v[10, 10] = 5.0
+        v[14, 6] = 5.0                       # equal value, Chebyshev distance 4
+        assert len(moravec_points(v, nms_size=9)[0]) == 0
+        assert len(moravec_points(v, nms_size=7)[0]) == 2
+
+    def test_thresholds(self):
+        v = np.zeros((30, 30), np.float32)
+        for n, (y, x) in enumerate([(5, 5), (5, 20), (20, 5), (20, 20)]):
+            v[y, x] = 10.0 * (n + 1)
+        assert len(moravec_points(v, nms_size=5)[0]) == 4
+        assert len(moravec_points(v, nms_size=5, threshold=20.0)[0]) == 2  # strict: 20 out
+        assert len(moravec_points(v, nms_size=5, threshold=19.9)[0]) == 3
+        assert len(moravec_points(v, nms_size=5, relative_threshold=0.5)[0]) == 2
+        assert len(moravec_points(v, nms_size=5, relative_threshold=0.49)[0]) == 3
+
+    def test_margin(self):
+        v = np.zeros((20, 20), np.float32)
+        v[2, 10] = 1.0                       # 2 px from the top
+        v[10, 16] = 2.0                      # 3 px from the right
+        v[10, 10] = 3.0
+        assert len(moravec_points(v, nms_size=3)[0]) == 3
+        assert len(moravec_points(v, nms_size=3, margin=2)[0]) == 3
+        pts, _ = moravec_points(v, nms_size=3, margin=3)
+        assert sorted(pts.tolist()) == [[10.0, 10.0], [16.0, 10.0]]
+        pts, _ = moravec_points(v, nms_size=3, margin=4)
+        assert pts.tolist() == [[10.0, 10.0]]
+
+    def test_mask(self):
+        rng = np.random.default_rng(4)
+        v = rng.normal(size=(40, 40)).astype(np.float32)
+        all_pts, _ = moravec_points(v, nms_size=5, threshold=0.0)
+        mask = np.zeros((40, 40), np.uint8)
+        mask[:, :20] = 1
+        pts, _ = moravec_points(v, nms_size=5, mask=mask)
+        assert 0 < len(pts) < len(all_pts)
+        assert (pts[:, 0] < 20).all()
+        want = sorted(p for p in all_pts.tolist() if p[0] < 20)
+        assert sorted(pts.tolist()) == want
+        pts_b, _ = moravec_points(v, nms_size=5, mask=mask.astype(bool))
+        assert np.array_equal(pts, pts_b)
+
+    def test_max_features_keeps_strongest(self):
+        rng = np.random.default_rng(6)
+        v = rng.permutation(50 * 50).reshape(50, 50).astype(np.float32)  # distinct values
+        pts, resp = moravec_points(v, nms_size=5)
+        assert len(pts) > 10
+        assert (np.diff(resp) <= 0).all()                   # strongest first
+        want = naive.strict_maxima(v, 2, 0, 0.0)
+        want_resp = np.sort(v[want[:, 0], want[:, 1]])[::-1]
+        for k in (1, 5, 10):
+            p_k, r_k = moravec_points(v, nms_size=5, max_features=k)
+            assert len(p_k) == k
+            assert np.array_equal(r_k, want_resp[:k])
+            assert np.array_equal(p_k, pts[:k])
+            assert np.array_equal(v[p_k[:, 1].astype(int), p_k[:, 0].astype(int)], r_k)
+
+    def test_subpixel_offsets_within_half_pixel(self):
+        rng = np.random.default_rng(7)
+        v = rng.normal(size=(40, 40)).astype(np.float32)
+        pts_i, _ = moravec_points(v, nms_size=5)
+        pts_s, resp_s = moravec_points(v, nms_size=5, subpixel=True)
+        assert len(pts_s) == len(pts_i) > 5
+        off = pts_s - pts_i
+        assert (np.abs(off) <= 0.5).all() and np.abs(off).max() > 0.01
+        assert np.array_equal(resp_s, v[pts_i[:, 1].astype(int), pts_i[:, 0].astype(int)])
+
+    @pytest.mark.parametrize("x0,y0", [(10.3, 12.0), (15.0, 9.75), (12.45, 13.2)])
+    def test_subpixel_recovers_parabola_peak(self, x0, y0):
+        yy, xx = np.mgrid[:25, :30].astype(np.float64)
+        v = (100.0 - 2.0 * (xx - x0) ** 2 - 3.0 * (yy - y0) ** 2).astype(np.float32)
+        pts, _ = moravec_points(v, nms_size=7, subpixel=True)
+        assert len(pts) == 1
+        assert pts[0] == pytest.approx([x0, y0], abs=1e-3)
+
+
+class TestGradientWindows:
+    @pytest.mark.parametrize("size", [1, 3, 5, 7])
+    def test_equals_reference_for_integer_points(self, size):
+        rng = np.random.default_rng(size)
+        g = rng.uniform(0, 255, (30, 40)).astype(np.float32)
+        r = size // 2
+        pts = np.column_stack([rng.integers(r, 40 - r, 25),
+                               rng.integers(r, 30 - r, 25)]).astype(np.float32)
+        got = gradient_windows(g, pts, size)
+        want = naive.gradient_windows(g, pts, size)
+        assert got.shape == (25, size * size) and got.dtype == np.float32
+        assert np.allclose(got, want, atol=1e-4)
+        assert np.abs(got.mean(axis=1, dtype=np.float64)).max() < 1e-4
+        if size > 1:
+            assert np.abs(got).max() > 1.0
+
+    def test_raster_order(self):
+        g = np.arange(25, dtype=np.float32).reshape(5, 5)
+        got = gradient_windows(g, np.array([[2, 2]], np.float32), 3)
+        assert got.tolist() == naive.gradient_windows(g, [[2, 2]], 3).tolist()
+        assert got.tolist() == [[-6.0, -5.0, -4.0, -1.0, 0.0, 1.0, 4.0, 5.0, 6.0]]
+
+    def test_no_points(self):
+        out = gradient_windows(np.zeros((9, 9), np.float32), np.zeros((0, 2), np.float32), 5)
+        assert out.shape == (0, 25) and out.dtype == np.float32

@@ -1,0 +1,549 @@
+"""The sparse Hopfield network kernels (SPEC sections 2-4) against the dense reference of
+``tests/naive.py``: candidates, neighbourhoods, weights, energy, dynamics, disambiguation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import naive
+from hopmatch._kernels import network as _k
+from hopmatch.errors import BudgetExceededError
+from hopmatch.matching.disambiguate import disambiguate, singular_choice
+from hopmatch.matching.network import (
+    _starts,
+    candidate_pairs,
+    run_hopfield_network,
+    similarity_distance,
+)
+from hopmatch.matching.params import MATCHER_PARAMS, PRESETS
+
+DEFAULTS = {param.name: param.default for param in MATCHER_PARAMS}
+
+#: Parameter sets the dense comparison runs: the defaults (two-phase annealing), the
+#: paper's section 4, a gated/limited network with the stable-iterations rule, and a
+#: network cut short by max_iterations.
+CONFIGS = {
+    "default": dict(max_disparity=15.0, max_vertical=2.0, similarity_gate=None),
+    "paper": dict(PRESETS["paper"]),
+    "gated": dict(max_disparity=15.0, max_vertical=3.0, similarity_gate=1.2, max_candidates=3,
+                  stable_iterations=5, initial_bias=0.5, input_bias=-0.7, theta=8.0,
+                  slope=0.7, uniqueness_weight=0.6, similarity_weight=2.0),
+    "short": dict(max_disparity=15.0, max_vertical=3.0, similarity_gate=None,
+                  initial_bias=None, input_bias=1.3, max_iterations=7),
+}
+
+
+def params(**overrides):
+    p = dict(DEFAULTS)
+    p.update(overrides)
+    return p
+
+
+def make_problem(seed, n_left, n_right=None, width=80.0, height=40.0, dim=9,
+                 integer=False):
+    """A random stereo problem: most right points are left points shifted by a disparity of
+    about 6 px (with noise), the rest are outliers; descriptors of true pairs are close."""
+    rng = np.random.default_rng(seed)
+    n_right = n_left if n_right is None else n_right
+    left = np.column_stack([rng.uniform(0, width, n_left), rng.uniform(0, height, n_left)])
+    n_true = min(n_left, n_right) * 3 // 4
+    right = np.column_stack([rng.uniform(0, width, n_right), rng.uniform(0, height, n_right)])
+    right[:n_true] = left[:n_true] - [6.0, 0.0] + rng.normal(0, [1.5, 0.7], (n_true, 2))
+    desc_l = rng.normal(size=(n_left, dim))
+    desc_r = rng.normal(size=(n_right, dim))
+    desc_r[:n_true] = desc_l[:n_true] + rng.normal(0, 0.4, (n_true, dim))
+    perm = rng.permutation(n_right)
+    right, desc_r = right[perm], desc_r[perm]
+    if integer:
+        left, right = np.round(left), np.round(right)
+    return (np.ascontiguousarray(left, np.float32), np.ascontiguousarray(right, np.float32),
+            desc_l.astype(np.float32), desc_r.astype(np.float32))
+
+
+def kernel_network(left, right, desc_l, desc_r, p):
+    """The sparse network exactly as ``run_hopfield_network`` builds it, step by step."""
+    ni, nk = candidate_pairs(left, right, p["min_disparity"], p["max_disparity"],
+                             p["max_vertical"], p["max_neurons"])
+    sim = similarity_distance(desc_l, desc_r, ni, nk) if len(ni) else np.zeros(0)
+    keep = np.ones(len(ni), dtype=bool)
+    if p["similarity_gate"] is not None:
+        keep &= sim <= p["similarity_gate"]
+    if p["max_candidates"] and len(ni):
+        order = np.lexsort((sim, ni))
+        rank = np.empty(len(ni), dtype=np.int64)
+        rank[order] = np.arange(len(ni)) - np.searchsorted(ni[order], ni[order])
+        keep &= rank < p["max_candidates"]
+    ni, nk, sim = ni[keep], nk[keep], sim[keep]
+    start = _starts(ni, len(left))
+    order_l = np.argsort(left[:, 1], kind="stable")
+    ly = np.ascontiguousarray(left[order_l, 1])
+    nb_off, nb_idx = _k.neighbour_lists(left, order_l, ly,
+                                        np.float32(p["neighbour_width"] / 2),
+                                        np.float32(p["neighbour_height"] / 2))
+    n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
+    off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx,
+                                       p["similarity_weight"] * sim, p["theta"], p["slope"],
+                                       n_inter)
+    return dict(ni=ni, nk=nk, sim=sim, start=start, nb_off=nb_off, nb_idx=nb_idx,
+                n_inter=n_inter, off=off, idx=idx, w=w)
+
+
+def sparse_t(net, uniqueness_weight):
+    """T of eq. 11 assembled from the kernel's CSR weights and the uniqueness terms."""
+    ni, nk = net["ni"], net["nk"]
+    n = len(ni)
+    t = np.zeros((n, n))
+    for p in range(n):
+        for e in range(net["off"][p], net["off"][p + 1]):
+            t[p, net["idx"][e]] += net["w"][e]
+    t -= uniqueness_weight * ((ni[:, None] == ni[None, :]).astype(float)
+                              + (nk[:, None] == nk[None, :]))
+    np.fill_diagonal(t, 0.0)
+    return t
+
+
+def counts(net, v, n_left, n_right):
+    row = np.bincount(net["ni"][v == 1], minlength=n_left).astype(np.int64)
+    col = np.bincount(net["nk"][v == 1], minlength=n_right).astype(np.int64)
+    return row, col
+
+
+# ======================================================================================
+# candidates and neighbourhoods
+# ======================================================================================
+
+
+class TestCandidates:
+    @pytest.mark.parametrize("seed", [0, 1, 2])
+    @pytest.mark.parametrize("dmin,dmax,vmax", [(0.0, 15.0, 2.0), (-10.0, 30.0, 15.0),
+                                                (3.0, 7.0, 0.0), (5.0, 5.0, 1.0)])
+    def test_equal_brute_force(self, seed, dmin, dmax, vmax):
+        # integer coordinates: the limits are hit exactly, so inclusiveness is tested
+        left, right, _, _ = make_problem(seed, 40, 35, integer=True)
+        ni, nk = candidate_pairs(left, right, dmin, dmax, vmax, 10**6)
+        want = naive.candidate_pairs(left, right, dmin, dmax, vmax)
+        assert list(zip(ni.tolist(), nk.tolist())) == want
+        assert ni.dtype == np.int32 and nk.dtype == np.int32
+        d = left[ni, 0] - right[nk, 0]
+        assert ((d >= dmin) & (d <= dmax)).all()
+        assert (np.abs(left[ni, 1] - right[nk, 1]) <= vmax).all()
+
+    def test_limits_are_inclusive(self):
+        left = np.array([[20, 10]], np.float32)
+        right = np.array([[20, 10], [5, 10], [4, 10], [10, 8], [10, 7.5], [21, 10]], np.float32)
+        ni, nk = candidate_pairs(left, right, 0.0, 15.0, 2.0, 100)
+        assert nk.tolist() == [0, 1, 3]
+        assert naive.candidate_pairs(left, right, 0.0, 15.0, 2.0) == [(0, 0), (0, 1), (0, 3)]
+
+    def test_budget(self):
+        left, right, _, _ = make_problem(0, 30)
+        n = len(naive.candidate_pairs(left, right, 0.0, 15.0, 3.0))
+        assert n > 10
+        assert len(candidate_pairs(left, right, 0.0, 15.0, 3.0, n)[0]) == n
+        with pytest.raises(BudgetExceededError):
+            candidate_pairs(left, right, 0.0, 15.0, 3.0, n - 1)
+
+    @pytest.mark.parametrize("seed", [0, 3])
+    @pytest.mark.parametrize("width,height", [(40.0, 20.0), (10.0, 4.0), (0.0, 0.0), (7.0, 3.0)])
+    def test_neighbour_lists_equal_brute_force(self, seed, width, height):
+        pts, _, _, _ = make_problem(seed, 60, integer=True)
+        pts[5] = pts[6]                        # a duplicate point: neighbour at distance 0
+        order = np.argsort(pts[:, 1], kind="stable")
+        off, idx = _k.neighbour_lists(pts, order, np.ascontiguousarray(pts[order, 1]),
+                                      np.float32(width / 2), np.float32(height / 2))
+        want = naive.neighbours(pts, width, height)
+        got = [idx[off[i]:off[i + 1]].tolist() for i in range(len(pts))]
+        assert got == want
+        assert 6 in got[5] and 5 in got[6]
+        if width == 40.0:
+            assert sum(map(len, want)) > 60
+
+
+# ======================================================================================
+# similarity
+# ======================================================================================
+
+
+class TestSimilarity:
+    def test_mean_abs_difference(self):
+        rng = np.random.default_rng(0)
+        a = rng.normal(size=(20, 25)).astype(np.float32)
+        b = rng.normal(size=(30, 25)).astype(np.float32)
+        ni = rng.integers(0, 20, 200).astype(np.int32)
+        nk = rng.integers(0, 30, 200).astype(np.int32)
+        got = _k.mean_abs_difference(a, b, ni, nk)
+        want = np.abs(a[ni].astype(np.float64) - b[nk]).mean(axis=1)
+        assert got.dtype == np.float64
+        assert np.allclose(got, want, rtol=1e-12, atol=0)
+
+    def test_hamming_fraction(self):
+        rng = np.random.default_rng(1)
+        a = rng.integers(0, 256, (20, 32)).astype(np.uint8)
+        b = rng.integers(0, 256, (30, 32)).astype(np.uint8)
+        b[3] = a[4]
+        b[5] = ~a[6]
+        ni = np.concatenate([[4, 6], rng.integers(0, 20, 200)]).astype(np.int32)
+        nk = np.concatenate([[3, 5], rng.integers(0, 30, 200)]).astype(np.int32)
+        got = _k.hamming_fraction(a, b, ni, nk)
+        want = np.unpackbits(a[ni] ^ b[nk], axis=1).sum(axis=1) / 256.0
+        assert np.array_equal(got, want)
+        assert got[0] == 0.0 and got[1] == 1.0
+
+    @pytest.mark.parametrize("dtype", [np.float32, np.uint8])
+    def test_similarity_distance_equals_reference(self, dtype):
+        rng = np.random.default_rng(2)
+        if dtype == np.uint8:
+            a = rng.integers(0, 256, (10, 16)).astype(np.uint8)
+            b = rng.integers(0, 256, (12, 16)).astype(np.uint8)
+        else:
+            a = rng.normal(size=(10, 16)).astype(np.float32)
+            b = rng.normal(size=(12, 16)).astype(np.float32)
+        ni = rng.integers(0, 10, 50).astype(np.int32)
+        nk = rng.integers(0, 12, 50).astype(np.int32)
+        got = similarity_distance(a, b, ni, nk)
+        want = [naive.similarity(a[i], b[k]) for i, k in zip(ni, nk)]
+        assert np.allclose(got, want, rtol=1e-9)
+
+
+# ======================================================================================
+# the network: weights, energy, dynamics
+# ======================================================================================
+
+
+PROBLEMS = [(0, 8), (1, 15), (2, 25), (3, 20)]
+
+
+@pytest.fixture(scope="module", params=sorted(CONFIGS))
+def config(request):
+    return request.param
+
+
+class TestDenseReference:
+    @pytest.mark.parametrize("seed,n", PROBLEMS)
+    def test_weights_equal_dense_t(self, config, seed, n):
+        p = params(**CONFIGS[config])
+        problem = make_problem(seed, n)
+        net = kernel_network(*problem, p)
+        dense = naive.dense_network(*problem, p)
+        assert np.array_equal(net["ni"], dense["ni"]) and np.array_equal(net["nk"], dense["nk"])
+        assert np.allclose(net["sim"], dense["sim"], rtol=1e-9)
+        # the stored interactions are exactly the pairs that interact through C
+        stored = np.zeros_like(dense["adj"])
+        for q in range(len(net["ni"])):
+            stored[q, net["idx"][net["off"][q]:net["off"][q + 1]]] = True
+        assert np.array_equal(stored, dense["adj"])
+        assert net["n_inter"] == dense["adj"].sum() == len(net["w"])
+        # eq. 11: T = C - w (delta_ij + delta_kl), zero diagonal; symmetric
+        t = sparse_t(net, p["uniqueness_weight"])
+        assert np.allclose(t, dense["T"], rtol=0, atol=1e-7)   # float32 weights: ~1 ulp
+        assert np.allclose(dense["T"], dense["T"].T, atol=0)
+        assert not np.diag(dense["T"]).any()
+        if n >= 15:
+            c = dense["C"][dense["adj"]]
+            assert len(c) > 0 and (np.abs(c) <= 1).all() and (c > 0).any()
+
+    @pytest.mark.parametrize("seed,n", PROBLEMS)
+    def test_energy_and_fields_of_any_state(self, config, seed, n):
+        p = params(**CONFIGS[config])
+        problem = make_problem(seed, n)
+        net = kernel_network(*problem, p)
+        dense = naive.dense_network(*problem, p)
+        rng = np.random.default_rng(seed)
+        uw = p["uniqueness_weight"]
+        for _ in range(5):
+            v = (rng.random(len(net["ni"])) < 0.4).astype(np.uint8)
+            row, col = counts(net, v, n, n)
+            args = (v, net["ni"], net["nk"], net["off"], net["idx"], net["w"], row, col, uw)
+            for bias in (p["input_bias"], 2.0, -0.3):
+                e = _k.network_energy(*args, bias)
+                assert e == pytest.approx(naive.energy(dense["T"], bias, v), abs=1e-8)
+                u = _k.local_fields(*args, bias)
+                assert np.allclose(u, dense["T"] @ v + bias, rtol=0, atol=1e-9)
+
+    @pytest.mark.parametrize("seed,n", PROBLEMS)
+    @pytest.mark.parametrize("run_seed", [0, 7, 12345])
+    def test_final_state_equals_dense(self, config, seed, n, run_seed):
+        p = params(**CONFIGS[config], seed=run_seed)
+        problem = make_problem(seed, n)
+        res = run_hopfield_network(*problem, p, record_energy=True)
+        dense, v, iterations, phases = naive.dense_match(*problem, p)
+        assert np.array_equal(res.neuron_left, dense["ni"])
+        assert np.array_equal(res.neuron_right, dense["nk"])
+        assert np.array_equal(res.state, v.astype(bool))
+        assert res.iterations == iterations
+        # the recorded trace is the energy of the states the dense replay went through
+        want = np.concatenate(phases)
+        assert res.energy_trace.shape == want.shape
+        assert np.allclose(res.energy_trace, want, rtol=0, atol=1e-8)
+        for energies in phases:                       # eq. 13 never increases E (per phase)
+            assert (np.diff(energies) <= 1e-9).all()
+        assert res.energy == pytest.approx(naive.energy(dense["T"], p["input_bias"], v),
+                                           abs=1e-8)
+        assert np.allclose(res.fields, dense["T"] @ v + p["input_bias"], rtol=0, atol=1e-9)
+        if config == "short":
+            assert res.iterations <= 7
+            assert res.converged or res.iterations == 7
+
+    @pytest.mark.parametrize("seed,n", [(2, 25), (3, 20)])
+    def test_python_versions_accumulate_in_float64(self, seed, n):
+        """What the NUMBA_DISABLE_JIT=1 job runs (``py_func``) must agree with the dense
+        reference as the compiled kernels do."""
+        p = params(**CONFIGS["paper"])
+        problem = make_problem(seed, n)
+        net = kernel_network(*problem, p)
+        t = naive.dense_network(*problem, p)["T"]
+        v = (np.random.default_rng(0).random(len(net["ni"])) < 0.4).astype(np.uint8)
+        row, col = counts(net, v, n, n)
+        args = (v, net["ni"], net["nk"], net["off"], net["idx"], net["w"], row, col, 1.0, 2.0)
+        assert _k.local_fields(*args) == pytest.approx(t @ v + 2.0, rel=0, abs=1e-9)
+        assert _k.network_energy(*args) == pytest.approx(naive.energy(t, 2.0, v), abs=1e-8)
+        assert _k.local_fields.py_func(*args) == pytest.approx(t @ v + 2.0, rel=0, abs=1e-9)
+        assert _k.network_energy.py_func(*args) == pytest.approx(naive.energy(t, 2.0, v),
+                                                                 abs=1e-8)
+
+    def test_the_comparison_is_not_vacuous(self):
+        """Across the problems above, the networks have neurons, turn some on and off, and
+        some final states differ between seeds (so the visit order matters)."""
+        p = params(**CONFIGS["paper"])
+        problem = make_problem(2, 25)
+        states, actives = set(), []
+        for s in range(6):
+            p["seed"] = s
+            res = run_hopfield_network(*problem, p, record_energy=True)
+            states.add((res.state.tobytes(), res.energy_trace.tobytes()))
+            actives.append(res.state.sum())
+        assert len(res.state) > 30 and min(actives) > 0
+        assert len(states) > 1
+
+    def test_visit_order_is_the_kernels(self):
+        """naive.kernel_sweeps reproduces run_network's order: on a network without
+        interactions where each left point has one neuron, each visit of the first sweep
+        turns on the visited point's neuron, so after t iterations the active neurons are
+        the first t points of the first sweep."""
+        n = 12
+        left = np.column_stack([np.arange(n) * 100.0, np.zeros(n)]).astype(np.float32)
+        right = left - np.float32([5, 0])
+        p = params(max_disparity=10.0, similarity_gate=None, initial_bias=None,
+                   input_bias=0.5, neighbour_width=1.0, neighbour_height=1.0)
+        net = kernel_network(left, right, np.ones((n, 4), np.float32),
+                             np.ones((n, 4), np.float32), p)
+        assert net["n_inter"] == 0
+        for seed in (0, 1, 99):
+            v, it, sweeps, converged, trace = _k.run_network(
+                np.zeros(n, np.uint8), net["ni"], net["nk"], net["start"], net["off"],
+                net["idx"], net["w"], n, n, 1.0, 0.5, np.uint64(seed), 0, 1000, True)
+            first = next(naive.kernel_sweeps(net["start"], seed))
+            # each visit adds 1 neuron, energy -0.5 each: the trace is a staircase
+            assert np.allclose(trace[: n + 1], -0.5 * np.arange(n + 1))
+            assert it == 2 * n and sweeps == 2 and converged and v.all()
+            assert sorted(first.tolist()) == list(range(n))
+            assert first.tolist() != list(range(n))
+            assert np.array_equal(net["ni"], np.arange(n))
+            for t in range(1, n + 1):
+                v, it, *_ = _k.run_network(
+                    np.zeros(n, np.uint8), net["ni"], net["nk"], net["start"], net["off"],
+                    net["idx"], net["w"], n, n, 1.0, 0.5, np.uint64(seed), 0, t, False)
+                assert it == t
+                assert np.flatnonzero(v).tolist() == sorted(first[:t].tolist())
+        a, b = (next(naive.kernel_sweeps(net["start"], s)) for s in (0, 1))
+        assert not np.array_equal(a, b)
+
+    def test_same_seed_same_result(self):
+        problem = make_problem(3, 20)
+        p = params(**CONFIGS["default"], seed=42)
+        a = run_hopfield_network(*problem, p, record_energy=True)
+        b = run_hopfield_network(*problem, p, record_energy=True)
+        assert np.array_equal(a.state, b.state)
+        assert np.array_equal(a.energy_trace, b.energy_trace)
+        assert a.iterations == b.iterations and a.sweeps == b.sweeps
+        assert np.array_equal(a.query_idx, b.query_idx)
+        traces = set()
+        for s in range(8):
+            p["seed"] = s
+            traces.add(run_hopfield_network(*problem, p, record_energy=True)
+                       .energy_trace.tobytes())
+        assert len(traces) > 1
+
+    def test_annealing_phases(self):
+        """With ``initial_bias`` the trace is two runs: each monotone, each ending at the
+        energy of its state with its own bias."""
+        p = params(**CONFIGS["default"])
+        problem = make_problem(1, 25)
+        net = kernel_network(*problem, p)
+        args = (net["ni"], net["nk"], net["start"], net["off"], net["idx"], net["w"], 25, 25,
+                p["uniqueness_weight"])
+        v = np.zeros(len(net["ni"]), np.uint8)
+        traces = []
+        for phase, bias in enumerate((p["initial_bias"], p["input_bias"])):
+            v, it, _, converged, trace = _k.run_network(
+                v, *args, bias, np.uint64(p["seed"] + phase), 0, 10**6, True)
+            assert converged and len(trace) == it + 1
+            assert (np.diff(trace) <= 1e-12).all()
+            row, col = counts(net, v, 25, 25)
+            e = _k.network_energy(v, net["ni"], net["nk"], net["off"], net["idx"], net["w"],
+                                  row, col, p["uniqueness_weight"], bias)
+            assert trace[-1] == pytest.approx(e, abs=1e-9)
+            traces.append(trace)
+        assert traces[1][0] != traces[0][-1]            # the bias changed between phases
+        res = run_hopfield_network(*problem, p, record_energy=True)
+        assert np.array_equal(res.energy_trace, np.concatenate(traces))
+        assert np.array_equal(res.state, v.astype(bool))
+
+
+@settings(max_examples=40, deadline=None, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**31), n=st.integers(2, 30),
+       input_bias=st.floats(-2.0, 3.0), uniqueness=st.floats(0.0, 2.0),
+       theta=st.floats(0.5, 20.0), slope=st.floats(0.1, 4.0), run_seed=st.integers(0, 2**40))
+def test_energy_never_increases(seed, n, input_bias, uniqueness, theta, slope, run_seed):
+    problem = make_problem(seed, n)
+    p = params(max_disparity=15.0, max_vertical=4.0, similarity_gate=None, initial_bias=None,
+               input_bias=input_bias, uniqueness_weight=uniqueness, theta=theta, slope=slope,
+               seed=run_seed)
+    res = run_hopfield_network(*problem, p, record_energy=True)
+    trace = res.energy_trace
+    assert len(trace) == res.iterations + 1 and trace[0] == 0.0
+    assert (np.diff(trace) <= 1e-9).all()
+    # the incremental energy is the true energy of the final state (eq. 11)
+    assert trace[-1] == pytest.approx(res.energy, abs=1e-6)
+    # a fixed point: no neuron would change (u > 0 for active, u < 0 ... or u = 0)
+    if res.converged:
+        u = res.fields
+        assert not (res.state & (u < -1e-9)).any()
+        assert not (~res.state & (u > 1e-9)).any()
+
+
+# ======================================================================================
+# sparsity: counts against brute force, at a size the dense matrix cannot have
+# ======================================================================================
+
+
+def _brute_force_interactions(left, right, p):
+    """(count, bound): ordered pairs ((i, k), (j, l)), j a neighbour of i, l != k; and the
+    same without the l != k restriction (sum over neurons of the neighbours' candidates)."""
+    d = left[:, None, 0] - right[None, :, 0]
+    dy = np.abs(left[:, None, 1] - right[None, :, 1])
+    b = ((d >= np.float32(p["min_disparity"])) & (d <= np.float32(p["max_disparity"]))
+         & (dy <= np.float32(p["max_vertical"]))).astype(np.float64)
+    nb = ((np.abs(left[:, None, 0] - left[None, :, 0]) <= np.float32(p["neighbour_width"] / 2))
+          & (np.abs(left[:, None, 1] - left[None, :, 1]) <= np.float32(p["neighbour_height"] / 2)))
+    np.fill_diagonal(nb, False)
+    nb = nb.astype(np.float64)
+    cnt = b.sum(axis=1)
+    bound = float(cnt @ (nb @ cnt))
+    same_k = float((b * (nb @ b)).sum())
+    return int(round(bound - same_k)), int(round(bound))
+
+
+class TestSparsity:
+    @pytest.mark.parametrize("seed,n", PROBLEMS)
+    def test_count_small(self, config, seed, n):
+        p = params(**CONFIGS[config])
+        problem = make_problem(seed, n)
+        net = kernel_network(*problem, p)
+        cnt = np.diff(net["start"])
+        bound = sum(cnt[net["nb_idx"][net["nb_off"][i]:net["nb_off"][i + 1]]].sum()
+                    for i in net["ni"])
+        assert net["n_inter"] <= bound
+        if p["similarity_gate"] is None and not p["max_candidates"]:
+            assert (net["n_inter"], bound) == _brute_force_interactions(problem[0], problem[1], p)
+
+    def test_2000_points(self):
+        """2000 points a side: a dense T would have (Nl Nr)^2 = 1.6e13 entries; the sparse
+        network stores exactly the brute-force count of interactions."""
+        n = 2000
+        left, right, dl, dr = make_problem(11, n, width=400.0, height=400.0, integer=True)
+        p = params(max_disparity=20.0, max_vertical=2.0, similarity_gate=None,
+                   max_iterations=20000)
+        count, bound = _brute_force_interactions(left, right, p)
+        assert 0 < count <= bound < 10**6
+        res = run_hopfield_network(left, right, dl, dr, p)
+        assert res.n_interactions == count
+        assert len(res.neuron_left) < 10 * n
+        assert res.n_interactions < 1e-6 * float(n * n) ** 2
+        p["max_interactions"] = count
+        run_hopfield_network(left, right, dl, dr, p)      # exactly at the budget: fine
+        p["max_interactions"] = count - 1
+        with pytest.raises(BudgetExceededError):
+            run_hopfield_network(left, right, dl, dr, p)
+
+
+# ======================================================================================
+# disambiguation (section 4)
+# ======================================================================================
+
+
+def _random_active(rng, integer_dy):
+    a = int(rng.integers(0, 40))
+    group = rng.integers(0, max(1, a // 2 + 1), a)
+    if integer_dy:
+        dy = rng.integers(-3, 4, a).astype(np.float64)
+    else:
+        dy = rng.normal(0, 1.5, a)
+    score = rng.integers(0, 3, a).astype(np.float64)     # ties on purpose
+    return group, dy, score
+
+
+class TestDisambiguation:
+    @pytest.mark.parametrize("integer_dy", [True, False])
+    def test_singular_choice_equals_reference(self, integer_dy):
+        rng = np.random.default_rng(int(integer_dy))
+        n_multi_joined = 0
+        for _ in range(300):
+            group, dy, score = _random_active(rng, integer_dy)
+            for threshold in (0.5, 1.0, 2.5):
+                got = singular_choice(group, dy, score, threshold)
+                want = naive.singular_choice(group, dy, score, threshold)
+                assert np.array_equal(got, want)
+                # at most one pair per group
+                assert len(np.unique(group[got])) == got.sum()
+                n_multi_joined += int(got.sum()) - int((np.bincount(group)[group] == 1).sum())
+        assert n_multi_joined > 50
+
+    def test_singular_choice_examples(self):
+        keep = singular_choice(np.array([0, 1, 1]), np.array([0.0, 0.2, 3.0]), np.zeros(3), 1.0)
+        assert keep.tolist() == [True, True, False]
+        # a tie in |dy - Ybar| is broken by the higher score
+        keep = singular_choice(np.array([0, 1, 1]), np.array([0.0, 0.5, -0.5]),
+                               np.array([0.0, 1.0, 2.0]), 1.0)
+        assert keep.tolist() == [True, False, True]
+        assert naive.singular_choice(np.array([0, 1, 1]), np.array([0.0, 0.5, -0.5]),
+                                     np.array([0.0, 1.0, 2.0]), 1.0).tolist() == keep.tolist()
+        # Ybar is updated as groups join: group 2 joins only after group 1 moved Ybar
+        group = np.array([0, 1, 1, 2, 2])
+        dy = np.array([0.0, 0.9, 5.0, 1.4, 7.0])
+        assert singular_choice(group, dy, np.zeros(5), 1.0).tolist() == [
+            True, True, False, True, False]
+        assert singular_choice(np.array([], int), np.zeros(0), np.zeros(0), 1.0).shape == (0,)
+
+    def test_disambiguate_is_one_to_one(self):
+        rng = np.random.default_rng(3)
+        total = 0
+        for _ in range(200):
+            n = int(rng.integers(0, 60))
+            ni = rng.integers(0, 15, n)
+            nk = rng.integers(0, 15, n)
+            active = rng.random(n) < 0.6
+            dy = rng.integers(-2, 3, n).astype(np.float64)
+            score = rng.normal(size=n)
+            out = disambiguate(ni, nk, active, dy, score, 1.0)
+            assert active[out].all()
+            assert len(np.unique(ni[out])) == len(out) == len(np.unique(nk[out]))
+            assert (np.diff(out) > 0).all()
+            act = np.flatnonzero(active)
+            both = (naive.singular_choice(ni[act], dy[act], score[act], 1.0)
+                    & naive.singular_choice(nk[act], dy[act], score[act], 1.0))
+            assert np.array_equal(out, act[both])
+            total += len(out)
+        assert total > 100
+
+    @pytest.mark.parametrize("seed", [0, 1, 2])
+    def test_network_matches_are_one_to_one(self, seed):
+        res = run_hopfield_network(*make_problem(seed, 25),
+                                   params(**CONFIGS["paper"], seed=seed))
+        assert len(res.query_idx) > 0
+        assert len(np.unique(res.query_idx)) == len(res.query_idx)
+        assert len(np.unique(res.train_idx)) == len(res.train_idx)
