@@ -6,18 +6,29 @@
   ``jit(exact=True)``: no fastmath at all, so the order of floating-point operations is the
   one written in the source.
 - ``cache=True`` writes compiled machine code next to the package (or to
-  ``NUMBA_CACHE_DIR``); set ``HOPMATCH_NUMBA_CACHE=0`` to turn it off.
+  ``NUMBA_CACHE_DIR``); set ``HOPMATCH_NUMBA_CACHE=0`` to turn it off. When the package
+  folder is read-only (a system-wide install) and ``NUMBA_CACHE_DIR`` is unset, caching is
+  off rather than failing at import.
 - Every kernel is ``nogil``, so hopmatch objects can run in concurrent threads.
 """
 
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import numba
 
 FASTMATH: frozenset[str] = frozenset({"nsz", "arcp", "contract", "afn", "reassoc"})
-CACHE: bool = os.environ.get("HOPMATCH_NUMBA_CACHE", "1").strip() not in {"0", "false", "no"}
+def _cache_wanted() -> bool:
+    if os.environ.get("HOPMATCH_NUMBA_CACHE", "1").strip().lower() in {"0", "false", "no"}:
+        return False
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return True
+    return os.access(Path(__file__).resolve().parent / "_kernels", os.W_OK)
+
+
+CACHE: bool = _cache_wanted()
 
 
 def jit(*signature, exact: bool = False):

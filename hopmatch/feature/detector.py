@@ -40,7 +40,8 @@ class DericheMoravecDetector(Configurable):
         Side of the neighbourhood in which a point must be the strict maximum (eq. 2;
         paper: 20). It spans ``nms_size // 2`` pixels on each side.
     threshold : float
-        Absolute threshold on V (eq. 2).
+        Absolute threshold on V (eq. 2). The default, 1e-3, only removes the numerical
+        noise of the recursive filter on perfectly flat regions (V there is about 1e-9).
     relative_threshold : float
         Threshold as a fraction of the image's largest V; the larger of the two applies.
     alpha, omega : float
@@ -70,7 +71,7 @@ class DericheMoravecDetector(Configurable):
         Param("preset", "default", choice("default", "paper")),
         Param("window_size", 5, integer(1, 99, odd=True)),
         Param("nms_size", 5, integer(1, 999)),
-        Param("threshold", 0.0, real(0.0)),
+        Param("threshold", 1e-3, real(0.0)),
         Param("relative_threshold", 0.0, real(0.0, 1.0)),
         Param("alpha", 1.0, real(0.0, lo_open=True)),
         Param("omega", 0.001, real(0.0)),

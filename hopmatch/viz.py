@@ -1,0 +1,380 @@
+"""Pictures of keypoints, matches and sparse disparities, and atomic file writers.
+
+Drawing uses OpenCV only (``cv2.drawMatches``, ``cv2.drawKeypoints``,
+``cv2.applyColorMap``); :func:`plot_energy` needs matplotlib, imported when called
+(``pip install hopmatch[all]``). Every function returns a uint8 BGR image, as
+``cv2.imwrite`` expects; inputs may be grey or BGR(A), 8-bit, 16-bit or float (other depths
+are stretched to 0..255 for display).
+
+Files are written atomically by :func:`write_image_atomic` and :func:`write_text_atomic`:
+the data goes to a temporary name in the destination folder and is renamed
+(``os.replace``) when complete, so a failed write never leaves a partial file.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import secrets
+from collections.abc import Sequence
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ._validate import _describe, as_gray_image, as_points
+from .errors import InvalidArgumentError, InvalidTypeError
+
+__all__ = [
+    "draw_disparity",
+    "draw_keypoints",
+    "draw_matches",
+    "plot_energy",
+    "write_image_atomic",
+    "write_text_atomic",
+]
+
+#: BGR colours of correct, wrong and unknown matches.
+GREEN = (0, 200, 0)
+RED = (0, 0, 255)
+GREY = (160, 160, 160)
+
+
+# --------------------------------------------------------------------------------------
+# Input helpers
+# --------------------------------------------------------------------------------------
+
+
+def _as_display(image, name: str) -> np.ndarray:
+    """``image`` as a uint8 BGR array for drawing (grey becomes 3 equal channels)."""
+    if isinstance(image, np.ndarray) and image.ndim == 3 and image.shape[2] in (3, 4) \
+            and image.dtype == np.uint8:
+        bgr = image[:, :, :3]
+        if bgr.shape[0] == 0 or bgr.shape[1] == 0:
+            raise InvalidArgumentError(f"`{name}` must not be empty, got shape {image.shape}")
+        return np.ascontiguousarray(bgr)
+    gray = as_gray_image(image, name)  # checks type, dtype, shape, finiteness
+    if gray.dtype != np.uint8:
+        gray = cv2.normalize(gray.astype(np.float32), None, 0, 255, cv2.NORM_MINMAX)
+        gray = gray.astype(np.uint8)
+    return cv2.cvtColor(gray, cv2.COLOR_GRAY2BGR)
+
+
+def _as_keypoints(keypoints, name: str) -> list:
+    """A list of ``cv2.KeyPoint`` from keypoints or an ``(N, 2)`` (x, y) array."""
+    if isinstance(keypoints, Sequence) and not isinstance(keypoints, (str, bytes)) \
+            and all(isinstance(kp, cv2.KeyPoint) for kp in keypoints):
+        return list(keypoints)
+    pts = as_points(keypoints, name)
+    return [cv2.KeyPoint(float(x), float(y), 5.0) for x, y in pts.tolist()]
+
+
+def _as_dmatches(matches, n_left: int, n_right: int) -> list:
+    """A list of ``cv2.DMatch`` from DMatches or an ``(M, 2)`` (left index, right index) array."""
+    if isinstance(matches, Sequence) and not isinstance(matches, (str, bytes)) \
+            and all(isinstance(m, cv2.DMatch) for m in matches):
+        out = list(matches)
+        pairs = np.array([(m.queryIdx, m.trainIdx) for m in out], dtype=np.int64).reshape(-1, 2)
+    else:
+        try:
+            pairs = np.asarray(matches)
+        except (TypeError, ValueError):
+            pairs = None
+        if pairs is None or pairs.dtype == np.bool_ or not np.issubdtype(pairs.dtype, np.integer):
+            raise InvalidTypeError(
+                "`matches` must be a sequence of cv2.DMatch or an (M, 2) integer array of "
+                f"(left index, right index), got {_describe(matches)}"
+            )
+        if pairs.size == 0:
+            pairs = pairs.reshape(0, 2)
+        if pairs.ndim != 2 or pairs.shape[1] != 2:
+            raise InvalidArgumentError(
+                f"`matches` must have shape (M, 2) holding (left index, right index), got "
+                f"shape {pairs.shape}"
+            )
+        out = [cv2.DMatch(int(q), int(t), 0.0) for q, t in pairs.tolist()]
+    if len(pairs) and (pairs[:, 0].min() < 0 or pairs[:, 0].max() >= n_left
+                       or pairs[:, 1].min() < 0 or pairs[:, 1].max() >= n_right):
+        raise InvalidArgumentError(
+            f"`matches` refer to keypoints that do not exist: indices must be in "
+            f"[0, {n_left}) on the left and [0, {n_right}) on the right"
+        )
+    return out
+
+
+# --------------------------------------------------------------------------------------
+# Drawing
+# --------------------------------------------------------------------------------------
+
+
+def draw_matches(left, right, kps_l, kps_r, matches, correct=None, *, known=None,
+                 draw_single_points: bool = False) -> np.ndarray:
+    """Draw matches side by side with ``cv2.drawMatches``.
+
+    Parameters
+    ----------
+    left, right : (H, W) or (H, W, 3|4) ndarray
+        The two images (grey or BGR(A); non-8-bit images are stretched for display).
+    kps_l, kps_r : sequence of cv2.KeyPoint or (N, 2) float32 ndarray
+        Keypoints of each image, (x, y).
+    matches : sequence of cv2.DMatch or (M, 2) int ndarray
+        ``queryIdx`` indexes ``kps_l``, ``trainIdx`` indexes ``kps_r``.
+    correct : (M,) bool ndarray, optional
+        When given, correct matches are drawn green and wrong ones red (on top); else
+        OpenCV's default random colours.
+    known : (M,) bool ndarray, optional
+        With ``correct``: matches whose correctness is unknown (False here, e.g. no ground
+        truth) are drawn grey.
+    draw_single_points : bool
+        Also draw the keypoints that have no match.
+
+    Returns
+    -------
+    (max(Hl, Hr), Wl + Wr, 3) uint8 ndarray
+        BGR picture.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.zeros((40, 50), np.uint8)
+    >>> pts = np.float32([[10, 10], [30, 20]])
+    >>> draw_matches(img, img, pts, pts, np.array([[0, 0], [1, 1]]), np.array([True, False])).shape
+    (40, 100, 3)
+    """
+    img_l, img_r = _as_display(left, "left"), _as_display(right, "right")
+    kl, kr = _as_keypoints(kps_l, "kps_l"), _as_keypoints(kps_r, "kps_r")
+    dm = _as_dmatches(matches, len(kl), len(kr))
+    single = 0 if draw_single_points else cv2.DrawMatchesFlags_NOT_DRAW_SINGLE_POINTS
+    if correct is None:
+        return cv2.drawMatches(img_l, kl, img_r, kr, dm, None, flags=single)
+    correct = _flags(correct, "correct", len(dm))
+    known = np.ones(len(dm), bool) if known is None else _flags(known, "known", len(dm))
+    # unknown first, wrong last: the red lines stay visible on top
+    groups = [(GREY, ~known), (GREEN, known & correct), (RED, known & ~correct)]
+    out = None
+    for colour, keep in groups:
+        chosen = [m for m, k in zip(dm, keep.tolist()) if k]
+        if out is None:
+            out = cv2.drawMatches(img_l, kl, img_r, kr, chosen, None, matchColor=colour,
+                                  singlePointColor=(255, 160, 0), flags=single)
+        else:
+            out = cv2.drawMatches(img_l, kl, img_r, kr, chosen, out, matchColor=colour,
+                                  flags=cv2.DrawMatchesFlags_DRAW_OVER_OUTIMG
+                                  | cv2.DrawMatchesFlags_NOT_DRAW_SINGLE_POINTS)
+    return out
+
+
+def _flags(values, name: str, n: int) -> np.ndarray:
+    values = np.asarray(values)
+    if values.dtype != np.bool_:
+        raise InvalidTypeError(f"`{name}` must be a bool array, got dtype {values.dtype}")
+    if values.shape != (n,):
+        raise InvalidArgumentError(
+            f"`{name}` must have shape ({n},), one flag per match, got {values.shape}"
+        )
+    return values
+
+
+def draw_disparity(left, points, disparities, max_disparity=None, *, radius: int = 2,
+                   min_disparity: float = 0.0) -> np.ndarray:
+    """Draw sparse disparities as coloured dots (``COLORMAP_TURBO``) over the grey left image.
+
+    Parameters
+    ----------
+    left : (H, W) or (H, W, 3|4) ndarray
+        The left image; it is shown in grey.
+    points : (N, 2) float32 ndarray or sequence of cv2.KeyPoint
+        Left points, (x, y).
+    disparities : (N,) ndarray
+        Their disparities in pixels.
+    max_disparity : float, optional
+        Disparity drawn red (the top of the colour map); default: the largest given.
+        ``min_disparity`` (default 0) is drawn dark blue; values outside are clipped.
+    radius : int
+        Dot radius in pixels.
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        BGR picture.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> draw_disparity(np.zeros((30, 40), np.uint8), np.float32([[5, 5]]), [3.0]).shape
+    (30, 40, 3)
+    """
+    gray = _as_display(left, "left")
+    gray = cv2.cvtColor(cv2.cvtColor(gray, cv2.COLOR_BGR2GRAY), cv2.COLOR_GRAY2BGR)
+    pts = as_points(points, "points")
+    disp = np.asarray(disparities, dtype=np.float64).reshape(-1)
+    if disp.shape[0] != pts.shape[0]:
+        raise InvalidArgumentError(
+            f"`disparities` must have one value per point ({pts.shape[0]}), got {disp.shape[0]}"
+        )
+    if not np.isfinite(disp).all():
+        raise InvalidArgumentError("`disparities` contains NaN or infinite values")
+    if len(disp) == 0:
+        return gray
+    lo = float(min_disparity)
+    hi = float(max_disparity) if max_disparity is not None else float(disp.max())
+    if not np.isfinite(hi):
+        raise InvalidArgumentError(f"`max_disparity` must be finite, got {max_disparity}")
+    scale = 255.0 / (hi - lo) if hi > lo else 0.0
+    levels = np.clip((disp - lo) * scale, 0, 255).astype(np.uint8).reshape(-1, 1)
+    colours = cv2.applyColorMap(levels, cv2.COLORMAP_TURBO).reshape(-1, 3).tolist()
+    for (x, y), c in zip(np.rint(pts).astype(int).tolist(), colours):
+        cv2.circle(gray, (x, y), int(radius), tuple(int(v) for v in c), -1, cv2.LINE_AA)
+    return gray
+
+
+def draw_keypoints(image, keypoints, color=(0, 255, 0)) -> np.ndarray:
+    """Draw keypoints with ``cv2.drawKeypoints`` (circles of the keypoint size).
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 3|4) ndarray
+    keypoints : sequence of cv2.KeyPoint or (N, 2) float32 ndarray
+        (x, y).
+    color : (B, G, R)
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+    """
+    img = _as_display(image, "image")
+    kps = _as_keypoints(keypoints, "keypoints")
+    return cv2.drawKeypoints(img, kps, None, color=color,
+                             flags=cv2.DrawMatchesFlags_DRAW_RICH_KEYPOINTS)
+
+
+def render_energy(trace, fmt: str = "png") -> bytes:
+    """The energy plot of :func:`plot_energy` as encoded bytes (``fmt``: png, pdf, svg...)."""
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError:
+        raise ImportError(
+            "plotting the energy needs matplotlib: pip install hopmatch[all] "
+            "(or pip install matplotlib)"
+        ) from None
+    trace = np.asarray(trace, dtype=np.float64).reshape(-1)
+    fig = Figure(figsize=(6.4, 3.6), dpi=100)
+    FigureCanvasAgg(fig)  # no pyplot: the global backend is left alone
+    ax = fig.add_subplot(1, 1, 1)
+    if trace.size:
+        ax.plot(np.arange(1, trace.size + 1), trace, lw=1.0, color="tab:blue")
+    else:
+        ax.text(0.5, 0.5, "no energy recorded", ha="center", va="center",
+                transform=ax.transAxes)
+    ax.set_xlabel("iteration (left point visited)")
+    ax.set_ylabel("energy (eq. 11)")
+    ax.set_title("Hopfield network energy")
+    ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format=fmt)
+    return buf.getvalue()
+
+
+def plot_energy(trace, path) -> Path:
+    """Plot the network energy after each iteration and save it (atomically) to ``path``.
+
+    Parameters
+    ----------
+    trace : (T,) float ndarray
+        ``NetworkResult.energy_trace`` (run with ``record_energy=True``).
+    path : str or os.PathLike
+        Output file; its suffix picks the format (``.png``, ``.pdf``, ``.svg``).
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    ImportError
+        matplotlib is not installed (``pip install hopmatch[all]``).
+    """
+    path = Path(path)
+    fmt = path.suffix.lstrip(".").lower() or "png"
+    write_bytes_atomic(path, render_energy(trace, fmt))
+    return path
+
+
+# --------------------------------------------------------------------------------------
+# Atomic writers
+# --------------------------------------------------------------------------------------
+
+
+def encode_image(image, ext: str = ".png") -> bytes:
+    """``image`` encoded with ``cv2.imencode`` for the extension ``ext`` (e.g. ``".png"``)."""
+    if not isinstance(image, np.ndarray):
+        raise InvalidTypeError(f"`image` must be a numpy array, got {_describe(image)}")
+    try:
+        ok, buf = cv2.imencode(ext, image)
+    except cv2.error as exc:
+        raise InvalidArgumentError(f"cannot encode the image as {ext!r}: {exc.err}") from None
+    if not ok:
+        raise InvalidArgumentError(f"cannot encode the image as {ext!r}")
+    return buf.tobytes()
+
+
+def write_temp(folder, name: str, data: bytes) -> Path:
+    """Write ``data`` to a new hidden temporary file in ``folder`` and return its path.
+
+    The name is ``.{name}.<random>.tmp``; nothing is left behind if writing fails.
+    """
+    folder = Path(folder)
+    for _ in range(100):
+        tmp = folder / f".{name}.{secrets.token_hex(4)}.tmp"
+        try:  # as open() would create it: mode 0o666 minus the umask (mkstemp gives 0o600)
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0),
+                         0o666)
+            break
+        except FileExistsError:
+            continue
+    else:  # pragma: no cover
+        raise FileExistsError(f"no free temporary name in {str(folder)!r}")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return Path(tmp)
+
+
+def write_bytes_atomic(path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` through a temporary file in the same folder + ``os.replace``."""
+    path = Path(path)
+    tmp = write_temp(path.parent, path.name, data)
+    try:
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return path
+
+
+def write_image_atomic(path, image) -> Path:
+    """Encode ``image`` for ``path``'s suffix (``.png``, ``.jpg``...) and write it atomically.
+
+    Unlike ``cv2.imwrite``, failure raises (``OSError``, or ``InvalidArgumentError`` for an
+    unknown suffix) instead of returning False, and never leaves a partial file.
+    """
+    path = Path(path)
+    return write_bytes_atomic(path, encode_image(image, path.suffix or ".png"))
+
+
+def write_text_atomic(path, text: str, encoding: str = "utf-8") -> Path:
+    """Write ``text`` to ``path`` atomically (temporary file in the same folder, then rename)."""
+    return write_bytes_atomic(path, text.encode(encoding))
