@@ -254,3 +254,41 @@ def test_empty_inputs_give_empty_results():
     blank = np.zeros((60, 80), np.uint8)
     res = hopmatch.match_stereo(blank, blank)
     assert res.matches == () and res.disparities.shape == (0,)
+
+
+def test_fundamental_matrix_matches_along_epipolar_lines(pair, features):
+    """A rectified pair seen through F = [e1]x (horizontal epipolar lines) gives the same
+    candidates as the horizontal band, and a rotated right image is matched with its F."""
+    kl, dl, kr, dr = features
+    f_rect = np.array([[0, 0, 0], [0, 0, -1], [0, 1, 0]], np.float64)
+    a = _matcher(features).match(dl, dr)
+    m = _matcher(features)
+    m.setFundamentalMatrix(f_rect)
+    b = m.match(dl, dr)
+    assert [(x.queryIdx, x.trainIdx) for x in a] == [(x.queryIdx, x.trainIdx) for x in b]
+    assert np.array_equal(m.getFundamentalMatrix(), f_rect)
+    m.clearPairInfo()
+    assert m.getFundamentalMatrix() is None
+
+    # rotate the right image by 3 degrees: rows are no longer epipolar lines
+    rot = cv2.getRotationMatrix2D((110, 80), 3.0, 1.0)
+    right_rot = cv2.warpAffine(pair[1], rot, (220, 160))
+    res_band = hopmatch.match_stereo(pair[0], right_rot, max_disparity=20)
+    h = np.vstack([rot, [0, 0, 1]])
+    f_rot = np.linalg.inv(h).T @ f_rect  # x_r = H x_r0 with x_r0^T F x_l = 0
+    res_f = hopmatch.match_stereo(pair[0], right_rot, max_disparity=20, max_vertical=1.5,
+                                  fundamental_matrix=f_rot)
+    back = cv2.transform(res_f.matched_right[None], cv2.invertAffineTransform(rot))[0]
+    d = res_f.matched_left[:, 0] - back[:, 0]
+    assert len(res_f.matches) > 2 * len(res_band.matches)
+    assert np.mean(np.abs(d - SHIFT) <= 1) > 0.9
+
+
+def test_fundamental_matrix_validation():
+    m = HopfieldMatcher()
+    with pytest.raises(InvalidArgumentError, match=r"\(3, 3\)"):
+        m.setFundamentalMatrix(np.eye(3)[:2])
+    with pytest.raises(InvalidTypeError, match="F"):
+        m.setFundamentalMatrix([[1, 0, 0]] * 3)
+    with pytest.raises(InvalidArgumentError, match="finite"):
+        m.setFundamentalMatrix(np.full((3, 3), np.nan))

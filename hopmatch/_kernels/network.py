@@ -68,6 +68,61 @@ def fill_candidates(left, right, order_r, ry_sorted, dmin, dmax, vmax, n):
 
 
 @jit
+def epipolar_offset(f, xl, yl, xr, yr):
+    """Signed distance of the right point (xr, yr) to the epipolar line ``F (xl, yl, 1)``."""
+    a = f[0, 0] * xl + f[0, 1] * yl + f[0, 2]
+    b = f[1, 0] * xl + f[1, 1] * yl + f[1, 2]
+    c = f[2, 0] * xl + f[2, 1] * yl + f[2, 2]
+    norm = np.sqrt(a * a + b * b)
+    if norm == 0.0:
+        return np.inf
+    return (a * xr + b * yr + c) / norm
+
+
+@jit
+def count_candidates_epipolar(left, right, order_x, rx_sorted, f, dmin, dmax, vmax):
+    """Number of pairs with ``dmin <= xl - xr <= dmax`` and the right point within ``vmax``
+    of the left point's epipolar line (fundamental matrix ``f``, float64 3 x 3)."""
+    n = 0
+    for i in range(left.shape[0]):
+        xl = np.float64(left[i, 0])
+        yl = np.float64(left[i, 1])
+        a, b = _window_query(rx_sorted, np.float32(xl - dmax), np.float32(xl - dmin))
+        for t in range(a, b):
+            k = order_x[t]
+            d = left[i, 0] - right[k, 0]
+            if d >= dmin and d <= dmax:
+                if abs(epipolar_offset(f, xl, yl, np.float64(right[k, 0]),
+                                       np.float64(right[k, 1]))) <= vmax:
+                    n += 1
+    return n
+
+
+@jit
+def fill_candidates_epipolar(left, right, order_x, rx_sorted, f, dmin, dmax, vmax, n):
+    """The pairs counted by :func:`count_candidates_epipolar`, sorted by i then k."""
+    ni = np.empty(n, dtype=np.int32)
+    nk = np.empty(n, dtype=np.int32)
+    p = 0
+    for i in range(left.shape[0]):
+        xl = np.float64(left[i, 0])
+        yl = np.float64(left[i, 1])
+        a, b = _window_query(rx_sorted, np.float32(xl - dmax), np.float32(xl - dmin))
+        q = p
+        for t in range(a, b):
+            k = order_x[t]
+            d = left[i, 0] - right[k, 0]
+            if d >= dmin and d <= dmax:
+                if abs(epipolar_offset(f, xl, yl, np.float64(right[k, 0]),
+                                       np.float64(right[k, 1]))) <= vmax:
+                    nk[p] = k
+                    ni[p] = i
+                    p += 1
+        nk[q:p] = np.sort(nk[q:p])
+    return ni, nk
+
+
+@jit
 def neighbour_lists(points, order, ys_sorted, half_w, half_h):
     """CSR lists of the other points j with ``|xj - xi| <= half_w`` and ``|yj - yi| <= half_h``.
 

@@ -73,6 +73,7 @@ class HopfieldMatcher(Configurable):
     def __init__(self, **params):
         self._init_params(params)
         self._pair = None
+        self._fundamental = None
         self._last: NetworkResult | None = None
 
     # -- pair information (as LightGlueMatcher) ----------------------------------------
@@ -93,8 +94,20 @@ class HopfieldMatcher(Configurable):
                       as_image_size(trainImageSize, "trainImageSize"))
 
     def clearPairInfo(self) -> None:  # noqa: N802
-        """Forget the pair information."""
+        """Forget the pair information (keypoints, image sizes and fundamental matrix)."""
         self._pair = None
+        self._fundamental = None
+
+    def setFundamentalMatrix(self, F) -> None:  # noqa: N802, N803
+        """Match an unrectified pair: candidates lie within ``max_vertical`` pixels of the
+        left point's epipolar line ``F (x, y, 1)`` instead of a horizontal band, and the
+        disambiguation measures offsets from that line. ``F`` is 3 x 3 as returned by
+        ``cv2.findFundamentalMat`` (``x_r^T F x_l = 0``); None returns to rectified mode."""
+        self._fundamental = as_fundamental_matrix(F)
+
+    def getFundamentalMatrix(self):  # noqa: N802
+        """The fundamental matrix set by :meth:`setFundamentalMatrix`, or None."""
+        return None if self._fundamental is None else self._fundamental.copy()
 
     # -- matching ------------------------------------------------------------------------
     def run(self, queryDescriptors, trainDescriptors, mask=None,  # noqa: N803
@@ -128,7 +141,8 @@ class HopfieldMatcher(Configurable):
                 f"({p['min_disparity']})"
             )
         self._last = run_hopfield_network(q_pts, t_pts, qd, td, p, mask=mask,
-                                    record_energy=record_energy)
+                                          record_energy=record_energy,
+                                          fundamental=self._fundamental)
         return self._last
 
     def match(self, queryDescriptors, trainDescriptors, mask=None):  # noqa: N803
@@ -221,7 +235,7 @@ class HopfieldMatcher(Configurable):
 
     def clear(self) -> None:
         """Forget the pair information and the last result."""
-        self._pair = None
+        self.clearPairInfo()
         self._last = None
 
     def clone(self, emptyTrainData=False):  # noqa: N803
@@ -229,6 +243,7 @@ class HopfieldMatcher(Configurable):
         other = type(self)(**self._params)
         if not emptyTrainData and self._pair is not None:
             other._pair = copy.deepcopy(self._pair)
+            other._fundamental = self.getFundamentalMatrix()
         return other
 
     def __getstate__(self):
@@ -237,7 +252,27 @@ class HopfieldMatcher(Configurable):
     def __setstate__(self, state):
         self._init_params(state["params"])
         self._pair = None
+        self._fundamental = None
         self._last = None
+
+
+def as_fundamental_matrix(F):
+    """Validate a fundamental matrix: None, or a finite 3 x 3 array (returned as float64)."""
+    if F is None:
+        return None
+    if not isinstance(F, np.ndarray):
+        raise InvalidTypeError(f"`F` must be a 3 x 3 numpy array or None, got {type(F).__name__}")
+    if F.dtype == np.bool_ or not np.issubdtype(F.dtype, np.number):
+        raise InvalidTypeError(f"`F` must hold numbers, got dtype {F.dtype}")
+    if F.shape != (3, 3):
+        raise InvalidArgumentError(
+            f"`F` must have shape (3, 3), got {F.shape}; cv2.findFundamentalMat may return "
+            "several stacked solutions (9 x 3) for FM_7POINT: pick one"
+        )
+    F = np.ascontiguousarray(F, dtype=np.float64)
+    if not np.isfinite(F).all() or not F.any():
+        raise InvalidArgumentError("`F` must be finite and not all zero")
+    return F
 
 
 def _positive_int(value, name):
@@ -249,7 +284,8 @@ def _positive_int(value, name):
 
 
 def hopfield_match(left_pts, right_pts, left_desc, right_desc, *, image_size=None, mask=None,
-                   record_energy: bool = False, **params) -> NetworkResult:
+                   fundamental_matrix=None, record_energy: bool = False,
+                   **params) -> NetworkResult:
     """Match two keypoint sets with the Hopfield network (the function behind
     :class:`HopfieldMatcher`).
 
@@ -263,6 +299,8 @@ def hopfield_match(left_pts, right_pts, left_desc, right_desc, *, image_size=Non
         Left image size (for the default disparity range).
     mask : (Nl, Nr) uint8 or bool ndarray, optional
         Zero forbids a pair.
+    fundamental_matrix : (3, 3) ndarray, optional
+        For an unrectified pair (see :meth:`HopfieldMatcher.setFundamentalMatrix`).
     record_energy : bool
         Keep the energy after every iteration in ``energy_trace``.
     **params
@@ -274,4 +312,5 @@ def hopfield_match(left_pts, right_pts, left_desc, right_desc, *, image_size=Non
     """
     matcher = HopfieldMatcher(**params)
     matcher.setPairInfo(left_pts, right_pts, image_size, None)
+    matcher.setFundamentalMatrix(fundamental_matrix)
     return matcher.run(left_desc, right_desc, mask, record_energy=record_energy)

@@ -79,25 +79,47 @@ def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
     return m / (0.5 * (scale_l[ni] + scale_r[nk]) + _EPS)
 
 
-def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max_neurons):
+def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max_neurons,
+                    fundamental=None):
     """Neurons: pairs with ``min_disparity <= xl - xr <= max_disparity`` and
     ``|yl - yr| <= max_vertical`` (SPEC section 3's search window), sorted by (i, k).
 
+    With a fundamental matrix, the band is around each left point's epipolar line instead:
+    the right point's distance to ``F (xl, yl, 1)`` is at most ``max_vertical``.
     Raises :class:`BudgetExceededError` before allocating more than ``max_neurons``.
     """
-    order_r = np.argsort(right[:, 1], kind="stable")
-    ry = np.ascontiguousarray(right[order_r, 1])
-    args = (left, right, order_r, ry, np.float32(min_disparity), np.float32(max_disparity),
-            np.float32(max_vertical))
-    n = _k.count_candidates(*args)
+    band = (np.float32(min_disparity), np.float32(max_disparity), np.float32(max_vertical))
+    if fundamental is None:
+        order = np.argsort(right[:, 1], kind="stable")
+        args = (left, right, order, np.ascontiguousarray(right[order, 1]))
+        count, fill = _k.count_candidates, _k.fill_candidates
+    else:
+        order = np.argsort(right[:, 0], kind="stable")
+        args = (left, right, order, np.ascontiguousarray(right[order, 0]),
+                np.ascontiguousarray(fundamental, dtype=np.float64))
+        count, fill = _k.count_candidates_epipolar, _k.fill_candidates_epipolar
+    n = count(*args, *band)
     if n > max_neurons:
         raise BudgetExceededError(
             f"the network would have {n} neurons (candidate pairs), more than max_neurons="
             f"{max_neurons}; narrow the disparity range (min_disparity/max_disparity) or "
             "max_vertical, use fewer keypoints, or raise max_neurons"
         )
-    ni, nk, _ = _k.fill_candidates(*args, n)
-    return ni, nk
+    return fill(*args, *band, n)[:2]
+
+
+def vertical_offsets(left, right, ni, nk, fundamental=None) -> np.ndarray:
+    """The "vertical disparity" of each pair used by section 4: ``yl - yr`` on a rectified
+    pair, or the signed distance of the right point to the left point's epipolar line."""
+    if fundamental is None:
+        return left[ni, 1].astype(np.float64) - right[nk, 1]
+    f = np.asarray(fundamental, dtype=np.float64)
+    hom = np.c_[left[ni].astype(np.float64), np.ones(len(ni))]
+    lines = hom @ f.T
+    norm = np.hypot(lines[:, 0], lines[:, 1])
+    num = lines[:, 0] * right[nk, 0] + lines[:, 1] * right[nk, 1] + lines[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(norm > 0, num / norm, np.inf)
 
 
 def _starts(ni: np.ndarray, n_left: int) -> np.ndarray:
@@ -107,15 +129,17 @@ def _starts(ni: np.ndarray, n_left: int) -> np.ndarray:
 
 
 def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
-                   record_energy: bool = False) -> NetworkResult:
+                         record_energy: bool = False, fundamental=None) -> NetworkResult:
     """Match validated arrays with the network; ``p`` holds resolved matcher parameters.
+
+    ``fundamental`` (3 x 3, optional) replaces the horizontal band by an epipolar band.
 
     ``left``/``right`` are (N, 2) float32 (x, y); ``mask`` an optional (Nl, Nr) bool array
     (False forbids a neuron). See :class:`hopmatch.HopfieldMatcher` for the parameters.
     """
     nl, nr = len(left), len(right)
     ni, nk = candidate_pairs(left, right, p["min_disparity"], p["max_disparity"],
-                             p["max_vertical"], p["max_neurons"])
+                             p["max_vertical"], p["max_neurons"], fundamental)
     if mask is not None and len(ni):
         keep = mask[ni, nk]
         ni, nk = ni[keep], nk[keep]
@@ -163,7 +187,7 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
                         p["input_bias"])
     energy = _k.network_energy(v, ni, nk, off, idx, w, row, col, p["uniqueness_weight"],
                                p["input_bias"])
-    dy = left[ni, 1].astype(np.float64) - right[nk, 1]
+    dy = vertical_offsets(left, right, ni, nk, fundamental)
     state = v.astype(bool)
     if p["cross_check"]:
         chosen = disambiguate(ni, nk, state, dy, u, p["vertical_threshold"])

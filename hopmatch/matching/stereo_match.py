@@ -94,16 +94,20 @@ def _describe(detector, image, mask):
     return gray.shape, pts, resp, gradient_windows(g, pts, size)
 
 
-def match_stereo(left, right, *, mask_left=None, mask_right=None, record_energy: bool = False,
-                 **params) -> StereoMatchResult:
-    """Detect Moravec points on a rectified pair and match them with the Hopfield network.
+def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_matrix=None,
+                 record_energy: bool = False, **params) -> StereoMatchResult:
+    """Detect Moravec points on a stereo pair and match them with the Hopfield network.
 
     Parameters
     ----------
     left, right : (H, W) or (H, W, 3|4) ndarray
-        The rectified pair (grey, BGR or BGRA; 8-bit, 16-bit or float), same height.
+        The pair (grey, BGR or BGRA; 8-bit, 16-bit or float): rectified, of the same height,
+        unless ``fundamental_matrix`` is given.
     mask_left, mask_right : (H, W) uint8 or bool ndarray, optional
         Where keypoints may be detected.
+    fundamental_matrix : (3, 3) ndarray, optional
+        Match an unrectified pair along epipolar lines (``x_r^T F x_l = 0``, as
+        ``cv2.findFundamentalMat`` returns it) instead of image rows.
     record_energy : bool
         Keep the network energy after every iteration (``result.network.energy_trace``).
     **params
@@ -140,12 +144,13 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, record_energy:
     t1 = time.perf_counter()
     shape_r, pts_r, resp_r, desc_r = _describe(detector, right, (mask_right, "mask_right"))
     t2 = time.perf_counter()
-    if shape_l[0] != shape_r[0]:
+    if fundamental_matrix is None and shape_l[0] != shape_r[0]:
         raise InvalidArgumentError(
             f"`left` and `right` must have the same height (a rectified pair), got "
-            f"{shape_l[0]} and {shape_r[0]}"
+            f"{shape_l[0]} and {shape_r[0]}; for an unrectified pair pass fundamental_matrix"
         )
     matcher.setPairInfo(pts_l, pts_r, shape_l[::-1], shape_r[::-1])
+    matcher.setFundamentalMatrix(fundamental_matrix)
     net = matcher.run(desc_l, desc_r, record_energy=record_energy)
     t3 = time.perf_counter()
     return StereoMatchResult(
