@@ -1,0 +1,55 @@
+"""First-call (compilation) delay of hopmatch's Numba kernels, with a cold and a warm cache.
+
+Run: ``python benchmarks/first_call.py``
+
+Each measurement is a fresh interpreter with ``NUMBA_CACHE_DIR`` pointing at a new empty
+folder (cold: every kernel is compiled) or at the folder the cold run filled (warm: machine
+code is loaded from disk). It times ``import hopmatch``, ``hopmatch.warmup()`` (which compiles
+or loads every kernel), and the first ``match_stereo`` on motorcycle after it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+CHILD = r"""
+import json, time
+t0 = time.perf_counter()
+import hopmatch
+t1 = time.perf_counter()
+hopmatch.warmup()
+t2 = time.perf_counter()
+from hopmatch.datasets import load_motorcycle
+s = load_motorcycle()
+t3 = time.perf_counter()
+hopmatch.match_stereo(s.left, s.right)
+t4 = time.perf_counter()
+print(json.dumps({"import": t1 - t0, "warmup": t2 - t1, "first_match": t4 - t3}))
+"""
+
+
+def run(cache_dir: str) -> dict:
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
+    out = subprocess.run([sys.executable, "-c", CHILD], env=env, capture_output=True,
+                         text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    with tempfile.TemporaryDirectory() as cache:
+        cold = run(cache)
+        warm = run(cache)
+    print("## First-call delay (fresh interpreter each time)\n")
+    print("| cache | import ms | warmup() ms | first match_stereo after warmup ms |")
+    print("|---|---:|---:|---:|")
+    for name, r in (("cold (compile)", cold), ("warm (load from disk)", warm)):
+        print(f"| {name} | {r['import'] * 1e3:.0f} | {r['warmup'] * 1e3:.0f} | "
+              f"{r['first_match'] * 1e3:.0f} |")
+
+
+if __name__ == "__main__":
+    main()
