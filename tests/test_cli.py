@@ -193,7 +193,7 @@ def test_match_csv(pair, tmp_path):
     assert info["versions"]["hopmatch"] == version("hopmatch")
     assert info["parameters"]["given"] == {"max_disparity": 12.0}
     assert info["parameters"]["matcher"]["max_disparity"] == 12.0
-    assert info["parameters"]["detector"]["window_size"] == 5
+    assert info["parameters"]["detector"]["window_size"] == DericheMoravecDetector().getWindowSize()
     assert info["counts"]["matches"] == n
     assert info["counts"]["keypoints_left"] > 0
     assert {"detect_left", "detect_right", "match", "total"} <= set(info["timings_ms"])
@@ -312,7 +312,7 @@ def test_detect(pair, tmp_path):
     table = np.array(rows, dtype=np.float64)
     assert (table[:, 0] >= 0).all() and (table[:, 0] < 160).all()
     assert (table[:, 1] >= 0).all() and (table[:, 1] < 120).all()
-    assert (table[:, 3] == 5).all()
+    assert (table[:, 3] == DericheMoravecDetector().getWindowSize()).all()
     assert cv2.imread(str(out / "keypoints.png")).shape == (120, 160, 3)
     info = json.loads((out / "run.json").read_text())
     assert info["parameters"]["detector"]["nms_size"] == 7

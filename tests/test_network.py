@@ -78,10 +78,7 @@ def kernel_network(left, right, desc_l, desc_r, p):
         keep &= rank < p["max_candidates"]
     ni, nk, sim = ni[keep], nk[keep], sim[keep]
     start = _starts(ni, len(left))
-    order_l = np.argsort(left[:, 1], kind="stable")
-    ly = np.ascontiguousarray(left[order_l, 1])
-    nb_off, nb_idx = _k.neighbour_lists(left, order_l, ly,
-                                        np.float32(p["neighbour_width"] / 2),
+    nb_off, nb_idx = _k.neighbour_lists(left, np.float32(p["neighbour_width"] / 2),
                                         np.float32(p["neighbour_height"] / 2))
     n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
     off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx,
@@ -147,13 +144,18 @@ class TestCandidates:
             candidate_pairs(left, right, 0.0, 15.0, 3.0, n - 1)
 
     @pytest.mark.parametrize("seed", [0, 3])
-    @pytest.mark.parametrize("width,height", [(40.0, 20.0), (10.0, 4.0), (0.0, 0.0), (7.0, 3.0)])
-    def test_neighbour_lists_equal_brute_force(self, seed, width, height):
-        pts, _, _, _ = make_problem(seed, 60, integer=True)
+    @pytest.mark.parametrize("width,height", [(40.0, 20.0), (10.0, 4.0), (0.0, 0.0), (7.0, 3.0),
+                                              (1000.0, 2.0), (3.0, 900.0)])
+    @pytest.mark.parametrize("n", [1, 60, 600])
+    def test_neighbour_lists_equal_brute_force(self, seed, width, height, n):
+        pts, _, _, _ = make_problem(seed, max(n, 7), integer=True)
+        pts = pts[:n] if n > 1 else pts[:1]
+        if n == 1:
+            off, idx = _k.neighbour_lists(pts, np.float32(width / 2), np.float32(height / 2))
+            assert off.tolist() == [0, 0] and len(idx) == 0
+            return
         pts[5] = pts[6]                        # a duplicate point: neighbour at distance 0
-        order = np.argsort(pts[:, 1], kind="stable")
-        off, idx = _k.neighbour_lists(pts, order, np.ascontiguousarray(pts[order, 1]),
-                                      np.float32(width / 2), np.float32(height / 2))
+        off, idx = _k.neighbour_lists(pts, np.float32(width / 2), np.float32(height / 2))
         want = naive.neighbours(pts, width, height)
         got = [idx[off[i]:off[i + 1]].tolist() for i in range(len(pts))]
         assert got == want

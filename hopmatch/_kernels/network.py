@@ -62,7 +62,7 @@ def fill_candidates(left, right, order_r, ry_sorted, dmin, dmax, vmax, n):
                 nk[p] = k
                 ni[p] = i
                 p += 1
-        nk[q:p] = np.sort(nk[q:p])
+        insertion_sort(nk, q, p)
         start[i + 1] = p
     return ni, nk, start
 
@@ -118,36 +118,94 @@ def fill_candidates_epipolar(left, right, order_x, rx_sorted, f, dmin, dmax, vma
                     nk[p] = k
                     ni[p] = i
                     p += 1
-        nk[q:p] = np.sort(nk[q:p])
+        insertion_sort(nk, q, p)
     return ni, nk
 
 
 @jit
-def neighbour_lists(points, order, ys_sorted, half_w, half_h):
-    """CSR lists of the other points j with ``|xj - xi| <= half_w`` and ``|yj - yi| <= half_h``.
+def insertion_sort(a, lo, hi):
+    """Sort ``a[lo:hi]`` in place (the lists sorted here are short)."""
+    for t in range(lo + 1, hi):
+        key = a[t]
+        u = t - 1
+        while u >= lo and a[u] > key:
+            a[u + 1] = a[u]
+            u -= 1
+        a[u + 1] = key
 
+
+@jit
+def neighbour_lists(points, half_w, half_h):
+    """CSR lists of the other points j with ``|xj - xi| <= half_w`` and ``|yj - yi| <= half_h``
+    (differences in float32, as the points are stored).
+
+    Points are bucketed in a grid of cells a hair larger than ``half_w x half_h`` (enlarged
+    until there are at most ~4 cells per point), so every neighbour lies in the 3 x 3 cells
+    around a point and the cost grows with the number of neighbours, not with N squared.
     Returns ``(offsets, indices)``; each list is sorted by index.
     """
     n = points.shape[0]
     offsets = np.zeros(n + 1, dtype=np.int64)
+    if n == 0:
+        return offsets, np.empty(0, dtype=np.int32)
+    xmin = np.float64(points[:, 0].min())
+    ymin = np.float64(points[:, 1].min())
+    span_x = np.float64(points[:, 0].max()) - xmin
+    span_y = np.float64(points[:, 1].max()) - ymin
+    cw = max(np.float64(half_w) * (1.0 + 1e-6), 1e-3)
+    ch = max(np.float64(half_h) * (1.0 + 1e-6), 1e-3)
+    ncx = int(span_x / cw) + 1
+    ncy = int(span_y / ch) + 1
+    while ncx * ncy > 4 * n + 64:
+        cw *= 2.0
+        ch *= 2.0
+        ncx = int(span_x / cw) + 1
+        ncy = int(span_y / ch) + 1
+    # counting sort of the points by cell, with their coordinates stored contiguously
+    cell = np.empty(n, dtype=np.int64)
+    cell_start = np.zeros(ncx * ncy + 1, dtype=np.int64)
     for i in range(n):
-        a, b = _window_query(ys_sorted, points[i, 1] - half_h, points[i, 1] + half_h)
+        cx = min(int((np.float64(points[i, 0]) - xmin) / cw), ncx - 1)
+        cy = min(int((np.float64(points[i, 1]) - ymin) / ch), ncy - 1)
+        cell[i] = cy * ncx + cx
+        cell_start[cell[i] + 1] += 1
+    for c in range(ncx * ncy):
+        cell_start[c + 1] += cell_start[c]
+    members = np.empty(n, dtype=np.int32)
+    sx = np.empty(n, dtype=np.float32)
+    sy = np.empty(n, dtype=np.float32)
+    fill = cell_start[:-1].copy()
+    for i in range(n):
+        q = fill[cell[i]]
+        members[q] = i
+        sx[q] = points[i, 0]
+        sy[q] = points[i, 1]
+        fill[cell[i]] += 1
+    for i in range(n):  # count (each point finds itself once)
+        cx0 = cell[i] % ncx
+        cy0 = cell[i] // ncx
         c = 0
-        for t in range(a, b):
-            j = order[t]
-            if j != i and abs(points[j, 0] - points[i, 0]) <= half_w:
-                c += 1
-        offsets[i + 1] = offsets[i] + c
+        for cy in range(max(cy0 - 1, 0), min(cy0 + 2, ncy)):
+            a = cell_start[cy * ncx + max(cx0 - 1, 0)]
+            b = cell_start[cy * ncx + min(cx0 + 2, ncx)]
+            for t in range(a, b):
+                if abs(sx[t] - points[i, 0]) <= half_w and abs(sy[t] - points[i, 1]) <= half_h:
+                    c += 1
+        offsets[i + 1] = offsets[i] + c - 1
     indices = np.empty(offsets[n], dtype=np.int32)
-    for i in range(n):
-        a, b = _window_query(ys_sorted, points[i, 1] - half_h, points[i, 1] + half_h)
+    for i in range(n):  # fill
+        cx0 = cell[i] % ncx
+        cy0 = cell[i] // ncx
         p = offsets[i]
-        for t in range(a, b):
-            j = order[t]
-            if j != i and abs(points[j, 0] - points[i, 0]) <= half_w:
-                indices[p] = j
-                p += 1
-        indices[offsets[i]:p] = np.sort(indices[offsets[i]:p])
+        for cy in range(max(cy0 - 1, 0), min(cy0 + 2, ncy)):
+            a = cell_start[cy * ncx + max(cx0 - 1, 0)]
+            b = cell_start[cy * ncx + min(cx0 + 2, ncx)]
+            for t in range(a, b):
+                if (members[t] != i and abs(sx[t] - points[i, 0]) <= half_w
+                        and abs(sy[t] - points[i, 1]) <= half_h):
+                    indices[p] = members[t]
+                    p += 1
+        insertion_sort(indices, offsets[i], p)
     return offsets, indices
 
 

@@ -69,8 +69,8 @@ class DericheMoravecDetector(Configurable):
     DEFAULT_NAME = "hopmatch_DericheMoravecDetector"
     PARAMS = (
         Param("preset", "default", choice("default", "paper")),
-        Param("window_size", 5, integer(1, 99, odd=True)),
-        Param("nms_size", 5, integer(1, 999)),
+        Param("window_size", 3, integer(1, 99, odd=True)),
+        Param("nms_size", 3, integer(1, 999)),
         Param("threshold", 1e-3, real(0.0)),
         Param("relative_threshold", 0.0, real(0.0, 1.0)),
         Param("alpha", 1.0, real(0.0, lo_open=True)),
@@ -78,14 +78,14 @@ class DericheMoravecDetector(Configurable):
         Param("on", "gradient", choice("gradient", "intensity")),
         Param("max_features", 0, integer(0)),
         Param("subpixel", True, boolean()),
-        Param("descriptor_size", 7, integer(1, 99, odd=True)),
+        Param("descriptor_size", 9, integer(1, 99, odd=True)),
     )
 
     PRESETS = {
         # section 4 of the paper: 5 x 5 Moravec window, 20 x 20 neighbourhood, integer pixels
         "paper": {"window_size": 5, "nms_size": 20, "subpixel": False, "on": "gradient"},
     }
-    PRESETS["default"] = {"window_size": 5, "nms_size": 5, "subpixel": True, "on": "gradient"}
+    PRESETS["default"] = {"window_size": 3, "nms_size": 3, "subpixel": True, "on": "gradient"}
 
     def __init__(self, **params):
         self._init_params(params)

@@ -122,6 +122,43 @@ def vertical_offsets(left, right, ni, nk, fundamental=None) -> np.ndarray:
         return np.where(norm > 0, num / norm, np.inf)
 
 
+def is_window_descriptor(desc: np.ndarray) -> bool:
+    """Whether rows look like the windows of eqs. 8-9: float, square length (s >= 3), and
+    zero-mean rows (as ``gradient_windows`` makes them; SIFT, KAZE... rows are not)."""
+    if desc.dtype == np.uint8 or desc.ndim != 2 or len(desc) == 0:
+        return False
+    s = int(round(np.sqrt(desc.shape[1])))
+    if s < 3 or s * s != desc.shape[1]:
+        return False
+    mean = np.abs(desc.mean(axis=1, dtype=np.float64))
+    scale = np.abs(desc).mean(axis=1, dtype=np.float64)
+    return bool(np.all(mean <= 1e-3 * scale + 1e-9))
+
+
+def shift_minimal(desc_l: np.ndarray, desc_r: np.ndarray, qi: np.ndarray,
+                  ti: np.ndarray) -> np.ndarray:
+    """Boolean (M,): the right window of each match fits the left one better at the matched
+    position than shifted by one pixel along the row (either way).
+
+    Compares the overlapping columns of the square (s x s) descriptor windows at column
+    shifts -1, 0, +1 with the mean absolute difference. A match whose cost is lower at a
+    one-pixel shift is a localisation near-miss (the right keypoint is off by >= 1 px) and
+    is rejected. Descriptors that are not windows (see :func:`is_window_descriptor`) pass
+    unchanged.
+    """
+    keep = np.ones(len(qi), dtype=bool)
+    if len(qi) == 0 or not (is_window_descriptor(desc_l[qi])
+                            and is_window_descriptor(desc_r[ti])):
+        return keep
+    s = int(round(np.sqrt(desc_l.shape[1])))
+    a = desc_l[qi].reshape(-1, s, s).astype(np.float64)
+    b = desc_r[ti].reshape(-1, s, s).astype(np.float64)
+    c_minus = np.abs(a[:, :, 1:] - b[:, :, :-1]).mean(axis=(1, 2))
+    c_zero = np.abs(a[:, :, 1:-1] - b[:, :, 1:-1]).mean(axis=(1, 2))
+    c_plus = np.abs(a[:, :, :-1] - b[:, :, 1:]).mean(axis=(1, 2))
+    return (c_zero <= c_minus) & (c_zero <= c_plus)
+
+
 def _starts(ni: np.ndarray, n_left: int) -> np.ndarray:
     start = np.zeros(n_left + 1, dtype=np.int64)
     np.cumsum(np.bincount(ni, minlength=n_left), out=start[1:])
@@ -156,9 +193,7 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
     ni, nk, sim = ni[keep], nk[keep], sim[keep]
     start = _starts(ni, nl)
 
-    order_l = np.argsort(left[:, 1], kind="stable")
-    ly = np.ascontiguousarray(left[order_l, 1])
-    nb_off, nb_idx = _k.neighbour_lists(left, order_l, ly, np.float32(p["neighbour_width"] / 2),
+    nb_off, nb_idx = _k.neighbour_lists(left, np.float32(p["neighbour_width"] / 2),
                                         np.float32(p["neighbour_height"] / 2))
     n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
     if n_inter > p["max_interactions"]:
@@ -193,6 +228,8 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
         chosen = disambiguate(ni, nk, state, dy, u, p["vertical_threshold"])
     else:
         chosen = np.flatnonzero(state)
+    if p["shift_check"]:
+        chosen = chosen[shift_minimal(desc_l, desc_r, ni[chosen], nk[chosen])]
     with np.errstate(over="ignore"):
         dist = (1.0 / (1.0 + np.exp(u[chosen]))).astype(np.float32)
     return NetworkResult(

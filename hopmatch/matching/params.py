@@ -16,14 +16,14 @@ MATCHER_PARAMS: tuple[Param, ...] = (
     Param("neighbour_width", 40.0, real(0.0)),
     Param("neighbour_height", 20.0, real(0.0)),
     # compatibility, eq. 5
-    Param("theta", 5.0, real(0.0)),
+    Param("theta", 2.0, real(0.0)),
     Param("slope", 2.0, real(0.0, lo_open=True)),
     # similarity, eqs. 7-9, weighted into pixel units
     Param("similarity_weight", 1.0, real(0.0)),
-    Param("similarity_gate", 0.6, real(0.0, optional=True)),
+    Param("similarity_gate", 0.45, real(0.0, optional=True)),
     Param("max_candidates", 0, integer(0)),
     # energy, eq. 11
-    Param("input_bias", -1.5, real()),
+    Param("input_bias", -2.5, real()),
     Param("initial_bias", 1.0, real(optional=True)),
     Param("uniqueness_weight", 1.0, real(0.0)),
     # dynamics, eqs. 12-13
@@ -33,6 +33,8 @@ MATCHER_PARAMS: tuple[Param, ...] = (
     # disambiguation, section 4
     Param("vertical_threshold", 1.0, real(0.0, lo_open=True)),
     Param("cross_check", True, boolean()),
+    # beyond the paper: reject matches whose windows align better one pixel off
+    Param("shift_check", True, boolean()),
     # resource budget
     Param("max_neurons", 5_000_000, integer(1)),
     Param("max_interactions", 100_000_000, integer(1)),
@@ -59,6 +61,7 @@ PRESETS: dict[str, dict] = {
         "uniqueness_weight": 1.0,
         "stable_iterations": 200,
         "vertical_threshold": 1.0,
+        "shift_check": False,
     },
 }
 
