@@ -1,0 +1,219 @@
+"""``hopmatch batch``: match the pairs of PAIRS.csv on a Dask cluster.
+
+The command is a click command meant to join the ``hopmatch`` group::
+
+    from hopmatch_dask.cli import batch
+    cli.add_command(batch)          # in hopmatch/cli.py, after the group is defined
+
+It follows the conventions of ``hopmatch``: bad input raises ``click.BadParameter`` /
+``click.UsageError`` naming the file or option (shown by ``hopmatch`` as
+``hopmatch: error: <where>: <problem>``, exit status 2), the progress bar is on stderr and
+only on a terminal, ``hopmatch --quiet`` silences it and the summary.
+
+Exit status: 0 when every pair has its result, :data:`EXIT_PAIRS_FAILED` (3) when the batch
+ran but some pairs failed (see DIR/summary.csv), 2 for bad input, 1 for internal errors.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import click
+
+import hopmatch
+from hopmatch.errors import HopmatchError
+
+from .batch import check_params, run_batch
+from .pairs import read_pairs
+
+__all__ = ["EXIT_PAIRS_FAILED", "batch"]
+
+#: Exit status when the batch ran to its end but at least one pair failed.
+EXIT_PAIRS_FAILED = 3
+
+
+# --------------------------------------------------------------------------------------
+# One option per detector / matcher parameter (same names as ``hopmatch match``)
+# --------------------------------------------------------------------------------------
+
+
+def _accepts(spec, value) -> bool:
+    try:
+        spec.check(spec.name, value)
+        return True
+    except (TypeError, ValueError):
+        return False
+
+
+class _ParamType(click.ParamType):
+    """Parses text as the parameter's type, then runs the parameter's own validator."""
+
+    def __init__(self, spec):
+        self.spec = spec
+        default = spec.default
+        self.kind = type(default) if default is not None else next(
+            (k for k, probe in ((float, 0.5), (int, 1)) if _accepts(spec, probe)), str)
+        self.optional = _accepts(spec, None)
+        self.name = {int: "integer", float: "number"}.get(self.kind, "text")
+
+    def convert(self, value, param, ctx):  # noqa: D102 (click API)
+        if not isinstance(value, str):
+            return value
+        text = value.strip()
+        if self.optional and text.lower() == "none":
+            return None
+        if self.kind in (int, float):
+            try:
+                value = self.kind(text)
+            except ValueError:
+                self.fail(f"{value!r} is not {'an integer' if self.kind is int else 'a number'}")
+        try:
+            return self.spec.check(self.spec.name, value)
+        except (TypeError, ValueError) as exc:
+            message = str(exc)
+            prefix = f"`{self.spec.name}` "
+            self.fail(message[len(prefix):] if message.startswith(prefix) else message)
+
+
+_UNSET = object()
+
+
+def _param_options(func):
+    seen = {}
+    for cls in (hopmatch.DericheMoravecDetector, hopmatch.HopfieldMatcher):
+        for spec in cls.PARAMS:
+            seen.setdefault(spec.name, spec)
+    for spec in reversed(list(seen.values())):
+        flag = spec.name.replace("_", "-")
+        shown = "None" if spec.default is None else repr(spec.default)
+        if isinstance(spec.default, bool):
+            func = click.option(f"--{flag}/--no-{flag}", spec.name, default=None,
+                                help=f"[default {shown}]")(func)
+        else:
+            kind = _ParamType(spec)
+            extra = "; 'none' for None" if kind.optional else ""
+            func = click.option(f"--{flag}", spec.name, type=kind, default=_UNSET,
+                                show_default=False, metavar=kind.name.upper(),
+                                help=f"[default {shown}{extra}]")(func)
+    return func
+
+
+# --------------------------------------------------------------------------------------
+# The command
+# --------------------------------------------------------------------------------------
+
+
+class _Progress:
+    """A click progress bar on stderr, shown only on a terminal and when not quiet."""
+
+    def __init__(self, total: int, enabled: bool):
+        self.bar = None
+        if enabled and total:
+            self.bar = click.progressbar(length=total, label="matching", file=sys.stderr,
+                                         show_pos=True, show_eta=True,
+                                         item_show_func=lambda o: o)
+            self.bar.__enter__()
+
+    def __call__(self, outcome, done, total):
+        if self.bar is not None:
+            self.bar.update(1, f"{outcome.name}: {outcome.status}")
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)
+            self.bar = None
+
+
+def _stderr_is_terminal() -> bool:
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+@click.command("batch")
+@click.argument("pairs_csv", metavar="PAIRS.csv")
+@click.option("--out", "-o", required=True, metavar="DIR",
+              help="Output folder (created if missing; finished pairs in it are skipped).")
+@click.option("--scheduler", metavar="ADDRESS",
+              help="Address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: "
+                   "start a local cluster on this machine).")
+@click.option("--workers", type=click.IntRange(min=1), metavar="N",
+              help="Worker processes of the local cluster [default: one per core].")
+@_param_options
+@click.pass_context
+def batch(ctx, pairs_csv, out, scheduler, workers, **params):
+    """Match every pair listed in PAIRS.csv on a Dask cluster.
+
+    PAIRS.csv has a header and the columns left,right and optionally name (relative paths
+    are relative to PAIRS.csv's folder; without a name, a pair is named after its left
+    image). Each pair is matched on a worker and written to DIR/<name>.csv (the columns of
+    'hopmatch match': left_x,left_y,right_x,right_y,disparity,distance), then
+    DIR/summary.csv lists name,status,matches,seconds,error for all pairs.
+
+    Results are written under a temporary name and renamed when complete; a rerun skips the
+    pairs whose result is there. A pair that fails (missing or corrupt image...) is
+    recorded in the summary and the batch goes on. Exit status: 0 when every pair has its
+    result, 3 when some failed, 2 for bad input.
+
+    Detector and matcher options are those of 'hopmatch match'.
+    """
+    quiet = bool((ctx.find_root().obj or {}).get("quiet"))
+    given = {k: v for k, v in params.items() if v is not _UNSET and not (
+        v is None and _is_bool(k))}
+    if scheduler and workers:
+        raise click.UsageError("--workers sets the size of the local cluster; it cannot be "
+                               "used with --scheduler (size that cluster where it runs)")
+    try:
+        check_params(given)
+    except HopmatchError as exc:
+        raise click.UsageError(" ".join(str(exc).split())) from None
+    try:
+        pairs = read_pairs(pairs_csv)
+    except HopmatchError as exc:
+        message = str(exc)
+        prefix = f"{pairs_csv}: "
+        raise click.BadParameter(message[len(prefix):] if message.startswith(prefix)
+                                 else message, param_hint=pairs_csv) from None
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise click.BadParameter("exists and is not a folder", param_hint=out)
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as exc:
+        raise click.BadParameter(f"cannot create the folder: {exc.strerror or exc}",
+                                 param_hint=out) from None
+    if not os.access(out, os.W_OK):
+        raise click.BadParameter("cannot write in the folder: permission denied",
+                                 param_hint=out)
+
+    bar = _Progress(len(pairs), enabled=not quiet and _stderr_is_terminal())
+    try:
+        report = run_batch(pairs, out, scheduler=scheduler, workers=workers, progress=bar,
+                           **given)
+    except OSError as exc:
+        if scheduler:
+            raise click.BadParameter(f"cannot reach the scheduler: {exc}",
+                                     param_hint="--scheduler") from None
+        raise
+    finally:
+        bar.close()
+
+    if not quiet:
+        ok, skipped, failed = (report.count(s) for s in ("ok", "skipped", "failed"))
+        click.echo(f"pairs: {len(pairs)} ({ok} matched, {skipped} already done, "
+                   f"{failed} failed)")
+        rate = f", {ok / report.seconds:.2f} pairs/s" if ok and report.seconds > 0 else ""
+        where = scheduler or f"local cluster of {report.workers} workers"
+        click.echo(f"time: {report.seconds:.1f} s on {where}{rate}")
+        for o in report.outcomes:
+            if o.status == "failed":
+                click.echo(f"failed: {o.name}: {o.error}", err=True)
+        click.echo(f"output: {report.out} (<name>.csv per pair, summary.csv)")
+    return 0 if report.ok else EXIT_PAIRS_FAILED
+
+
+def _is_bool(name: str) -> bool:
+    return any(isinstance(spec.default, bool) for cls in (hopmatch.DericheMoravecDetector,
+                                                         hopmatch.HopfieldMatcher)
+               for spec in cls.PARAMS if spec.name == name)
