@@ -1,0 +1,208 @@
+"""The scripts in ``examples/``, run as a user runs them: ``python examples/X.py --out DIR``
+in a subprocess (``sys.executable``), checking the exit status and the figures they print.
+
+Each script is run once per module (fixtures), and the figures are parsed from stdout.
+Scripts on ``../shared/data`` use the ``shared_data`` fixture (skipped with a reason when
+the data is absent) and get its location through ``HOPMATCH_SHARED_DATA``.
+"""
+
+from __future__ import annotations
+
+import ast
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+SHARED_EXAMPLES = ["stereo_calibration.py", "uncalibrated.py", "kitti_depth.py"]
+ALL_EXAMPLES = ["feature_matching.py", *SHARED_EXAMPLES]
+
+
+def run_example(script, *args, shared=None, cwd=None):
+    env = dict(os.environ)
+    if shared is not None:
+        env["HOPMATCH_SHARED_DATA"] = str(shared)
+    return subprocess.run([sys.executable, str(EXAMPLES / script), *map(str, args)],
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                          env=env, cwd=cwd, timeout=120)
+
+
+def figure(stdout: str, pattern: str) -> tuple:
+    """The groups of the first line of ``stdout`` matching ``pattern`` (as floats)."""
+    m = re.search(pattern, stdout, re.M)
+    assert m, f"no line matching {pattern!r} in:\n{stdout}"
+    return tuple(float(g) for g in m.groups())
+
+
+def ok(res):
+    assert res.returncode == 0, (res.returncode, res.stdout, res.stderr)
+    assert "Traceback" not in res.stderr
+    return res.stdout
+
+
+# --------------------------------------------------------------------------------------
+# every example
+# --------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("script", ALL_EXAMPLES)
+def test_example_has_the_opencv_sample_shape(script):
+    """Usage docstring, main(argv=None), and the sys.exit(main()) guard."""
+    tree = ast.parse((EXAMPLES / script).read_text())
+    doc = ast.get_docstring(tree)
+    assert doc and "Usage::" in doc and f"examples/{script}" in doc
+    mains = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "main"]
+    assert mains and [a.arg for a in mains[0].args.args] == ["argv"]
+    assert mains[0].args.defaults and ast.literal_eval(mains[0].args.defaults[0]) is None
+    assert 'if __name__ == "__main__":\n    sys.exit(main())' in (EXAMPLES / script).read_text()
+
+
+@pytest.mark.parametrize("script", SHARED_EXAMPLES)
+def test_missing_shared_data_exits_2_with_a_message(script, tmp_path):
+    res = run_example(script, "--out", tmp_path / "out", shared=tmp_path / "absent")
+    assert res.returncode == 2, (res.stdout, res.stderr)
+    assert "Traceback" not in res.stderr
+    assert "shared stereo data folder is absent" in res.stderr
+    assert str(tmp_path / "absent") in res.stderr
+
+
+# --------------------------------------------------------------------------------------
+# feature_matching.py
+# --------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def feature_matching(tmp_path_factory):
+    out = tmp_path_factory.mktemp("feature_matching")
+    return run_example("feature_matching.py", "--out", out), out
+
+
+def test_feature_matching_on_motorcycle(feature_matching):
+    res, out = feature_matching
+    stdout = ok(res)
+    n_left, n_right = figure(stdout, r"^keypoints: (\d+) left, (\d+) right$")
+    assert n_left > 1000 and n_right > 1000
+    (n_good,) = figure(stdout, r"^ratio-test matches: (\d+)")
+    (n_match,) = figure(stdout, r"^match matches: (\d+)$")
+    assert n_good > 500 and n_match > 500
+    for label in ("ratio-test", "match"):
+        (p,) = figure(stdout, rf"^{label} precision \(1 px\): ([\d.]+)%")
+        assert p >= 90.0
+    for name in ("knn_matches.png", "matches.png"):
+        img = cv2.imread(str(out / name))
+        assert img is not None and img.shape == (500, 2 * 741, 3)
+
+
+def test_feature_matching_on_two_image_paths(tmp_path):
+    from hopmatch.datasets import load_motorcycle
+
+    scene = load_motorcycle()
+    left, right = tmp_path / "l.png", tmp_path / "r.png"
+    cv2.imwrite(str(left), scene.left[:, :400])
+    cv2.imwrite(str(right), scene.right[:, :400])
+    res = run_example("feature_matching.py", left, right, "--out", tmp_path / "out")
+    stdout = ok(res)
+    assert "precision" not in stdout  # no ground truth for user images
+    (n_match,) = figure(stdout, r"^match matches: (\d+)$")
+    assert n_match > 100
+    assert (tmp_path / "out" / "matches.png").is_file()
+
+
+def test_feature_matching_unreadable_image_exits_2(tmp_path):
+    res = run_example("feature_matching.py", tmp_path / "no.png", tmp_path / "no2.png",
+                      "--out", tmp_path)
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert "cannot read the image" in res.stderr and "no.png" in res.stderr
+
+
+# --------------------------------------------------------------------------------------
+# stereo_calibration.py
+# --------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def stereo_calibration(shared_data, tmp_path_factory):
+    out = tmp_path_factory.mktemp("stereo_calibration")
+    return run_example("stereo_calibration.py", "--out", out, shared=shared_data), out
+
+
+def test_stereo_calibration_figures(stereo_calibration):
+    """Calibration RMS, planarity and scale pass; the PLY is written. (The |dy| check of
+    the rectified matches is the next test.)"""
+    res, out = stereo_calibration
+    assert res.returncode in (0, 1), (res.returncode, res.stdout, res.stderr)
+    assert "Traceback" not in res.stderr
+    failed = [ln for ln in res.stderr.splitlines() if "FAILED" in ln]
+    assert all("|dy| <= 1 px" in ln for ln in failed), failed
+    stdout = res.stdout
+    assert figure(stdout, r"^chessboard found in: (\d+) of (\d+) pairs$") == (13.0, 13.0)
+    (rms,) = figure(stdout, r"^calibration RMS: ([\d.]+) px$")
+    assert rms < 1.0
+    (n_match,) = figure(stdout, r"^matches: (\d+) ")
+    assert n_match > 30
+    (spacing,) = figure(stdout, r"^square size from triangulation: ([\d.]+) squares$")
+    assert abs(spacing - 1.0) <= 0.02
+    plane_sq, plane_mm = figure(stdout, r"^plane RMS: ([\d.]+) squares = ([\d.]+) mm")
+    assert plane_sq <= 0.05 and plane_mm == pytest.approx(30 * plane_sq, abs=0.01)
+    (n_ply,) = figure(stdout, r"^PLY: .*, (\d+) points")
+    text = (out / "stereo_calibration.ply").read_text().splitlines()
+    assert f"element vertex {int(n_ply)}" in text
+    assert len(text) == text.index("end_header") + 1 + n_ply
+    assert cv2.imread(str(out / "stereo_calibration_rectified.png")) is not None
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "goal missed: with a 4 px search band only about 80 % of hopmatch's matches on the "
+    "rectified chessboard pair have |dy| <= 1 px (goal 95 %), although the rectified "
+    "chessboard corners have a median |dy| of 0.14 px; with the default 1 px band the "
+    "figure is 100 % by construction. See docs/pipelines.md."))
+def test_stereo_calibration_rectified_matches_meet_the_dy_goal(stereo_calibration):
+    res, _ = stereo_calibration
+    (frac,) = figure(res.stdout, r"^rectified \|dy\| <= 1 px: ([\d.]+)% of")
+    assert frac >= 95.0
+    assert res.returncode == 0, res.stderr
+
+
+# --------------------------------------------------------------------------------------
+# uncalibrated.py
+# --------------------------------------------------------------------------------------
+
+def test_uncalibrated_on_aloe(shared_data, tmp_path):
+    res = run_example("uncalibrated.py", "--out", tmp_path, shared=shared_data)
+    stdout = ok(res)
+    (max_d,) = figure(stdout, r"^max_disparity: ([\d.]+) px")
+    assert max_d == pytest.approx(1.1 * 211, abs=0.1)
+    n_in, n_all, ratio = figure(stdout, r"^RANSAC inliers: (\d+) of (\d+) \(([\d.]+)%\)$")
+    assert n_in <= n_all and ratio >= 80.0
+    for label in (r"first match", r"re-match on the rectified pair \(mapped back\)",
+                  r"match with fundamental_matrix=F"):
+        n, n_scored, p = figure(stdout, rf"^{label}: (\d+) matches, (\d+) with ground truth, "
+                                        r"([\d.]+)% within 1 px$")
+        assert n_scored <= n and n_scored > 1000 and p >= 90.0
+    assert cv2.imread(str(tmp_path / "uncalibrated_rectified.png")) is not None
+
+
+# --------------------------------------------------------------------------------------
+# kitti_depth.py
+# --------------------------------------------------------------------------------------
+
+def test_kitti_depth(shared_data, tmp_path):
+    res = run_example("kitti_depth.py", "--out", tmp_path, shared=shared_data)
+    stdout = ok(res)
+    f, b = figure(stdout, r"^focal length: ([\d.]+) px, baseline: ([\d.]+) m$")
+    assert f == pytest.approx(718.856) and b == pytest.approx(0.537, abs=1e-3)
+    n, n_gt = figure(stdout, r"^matches: (\d+), (\d+) with LiDAR ground truth$")
+    assert n_gt > 100
+    (median,) = figure(stdout, r"^median relative depth error: ([\d.]+)%$")
+    (within,) = figure(stdout, r"^within 5%: ([\d.]+)%$")
+    assert median <= 5.0 and within >= 90.0
+    table = np.loadtxt(tmp_path / "kitti_depth.csv", delimiter=",", skiprows=1, ndmin=2)
+    assert table.shape == (n, 5)
+    has_gt = np.isfinite(table[:, 4])
+    assert has_gt.sum() == n_gt
+    rel = np.abs(table[has_gt, 3] - table[has_gt, 4]) / table[has_gt, 4]
+    assert np.median(rel) * 100 == pytest.approx(median, abs=0.05)
