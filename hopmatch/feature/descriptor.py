@@ -46,12 +46,12 @@ def gradient_windows(g: np.ndarray, points: np.ndarray, size: int) -> np.ndarray
     r = size // 2
     dy, dx = np.mgrid[-r : r + 1, -r : r + 1].astype(np.float32)
     # cv2.remap needs maps with fewer than SHRT_MAX (32767) rows: process in chunks
-    chunks = []
+    win = np.empty((n, size * size), np.float32)
     for a in range(0, n, 16384):
         pts = points[a:a + 16384]
         map_x = np.ascontiguousarray(pts[:, :1] + dx.reshape(1, -1))
         map_y = np.ascontiguousarray(pts[:, 1:] + dy.reshape(1, -1))
-        chunks.append(cv2.remap(g, map_x, map_y, cv2.INTER_LINEAR,
-                                borderMode=cv2.BORDER_REPLICATE))
-    win = np.concatenate(chunks)
-    return np.ascontiguousarray(win - win.mean(axis=1, keepdims=True), dtype=np.float32)
+        win[a:a + len(pts)] = cv2.remap(g, map_x, map_y, cv2.INTER_LINEAR,
+                                        borderMode=cv2.BORDER_REPLICATE)
+    win -= win.mean(axis=1, keepdims=True)
+    return win

@@ -159,6 +159,20 @@ def shift_minimal(desc_l: np.ndarray, desc_r: np.ndarray, qi: np.ndarray,
     return (c_zero <= c_minus) & (c_zero <= c_plus)
 
 
+def neighbours_with_neurons(left, start, width, height):
+    """CSR neighbour lists (SPEC section 4's ``width x height`` window) among the left points
+    that have neurons; points without neurons neither have nor are neighbours, since no
+    interaction can involve them."""
+    n_left = len(left)
+    has = np.flatnonzero(start[1:] > start[:-1])
+    off_s, idx_s = _k.neighbour_lists(np.ascontiguousarray(left[has]), np.float32(width / 2),
+                                      np.float32(height / 2))
+    offsets = np.zeros(n_left + 1, dtype=np.int64)
+    offsets[has + 1] = np.diff(off_s)
+    np.cumsum(offsets, out=offsets)
+    return offsets, has[idx_s].astype(np.int32)
+
+
 def _starts(ni: np.ndarray, n_left: int) -> np.ndarray:
     start = np.zeros(n_left + 1, dtype=np.int64)
     np.cumsum(np.bincount(ni, minlength=n_left), out=start[1:])
@@ -193,8 +207,8 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
     ni, nk, sim = ni[keep], nk[keep], sim[keep]
     start = _starts(ni, nl)
 
-    nb_off, nb_idx = _k.neighbour_lists(left, np.float32(p["neighbour_width"] / 2),
-                                        np.float32(p["neighbour_height"] / 2))
+    nb_off, nb_idx = neighbours_with_neurons(left, start, p["neighbour_width"],
+                                             p["neighbour_height"])
     n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
     if n_inter > p["max_interactions"]:
         raise BudgetExceededError(
