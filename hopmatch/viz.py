@@ -1,8 +1,9 @@
 """Pictures of keypoints, matches and sparse disparities, and atomic file writers.
 
 Drawing uses OpenCV only (``cv2.drawMatches``, ``cv2.drawKeypoints``,
-``cv2.applyColorMap``); :func:`plot_energy` needs matplotlib, imported when called
-(``pip install hopmatch[all]``). Every function returns a uint8 BGR image, as
+``cv2.applyColorMap``); the plots (:func:`plot_energy`, :func:`plot_precision_vs_correct`,
+:func:`plot_error_histogram`) need matplotlib, imported when called
+(``pip install hopmatch[all]``), and never touch pyplot's global state. Every function returns a uint8 BGR image, as
 ``cv2.imwrite`` expects; inputs may be grey or BGR(A), 8-bit, 16-bit or float (other depths
 are stretched to 0..255 for display).
 
@@ -16,7 +17,7 @@ from __future__ import annotations
 import io
 import os
 import secrets
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import cv2
@@ -30,6 +31,8 @@ __all__ = [
     "draw_keypoints",
     "draw_matches",
     "plot_energy",
+    "plot_error_histogram",
+    "plot_precision_vs_correct",
     "write_image_atomic",
     "write_text_atomic",
 ]
@@ -299,6 +302,181 @@ def plot_energy(trace, path) -> Path:
     path = Path(path)
     fmt = path.suffix.lstrip(".").lower() or "png"
     write_bytes_atomic(path, render_energy(trace, fmt))
+    return path
+
+
+def _figure(size):
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError:
+        raise ImportError(
+            "plotting needs matplotlib: pip install hopmatch[all] (or pip install matplotlib)"
+        ) from None
+    fig = Figure(figsize=size, dpi=100)
+    FigureCanvasAgg(fig)  # no pyplot: the global backend is left alone
+    return fig
+
+
+def _encode_figure(fig, fmt: str) -> bytes:
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format=fmt, bbox_inches="tight")  # keeps a legend outside the axes
+    return buf.getvalue()
+
+
+def _format_of(path: Path) -> str:
+    return path.suffix.lstrip(".").lower() or "png"
+
+
+_MARKERS = "os^Dv<>pP*Xh"
+
+
+def render_precision_vs_correct(rows, threshold: float = 1.0, fmt: str = "png",
+                                title: str | None = None) -> bytes:
+    """The plot of :func:`plot_precision_vs_correct` as encoded bytes."""
+    key_c, key_p = f"correct@{threshold:g}", f"precision@{threshold:g}"
+    rows = list(rows)
+    for row in rows:
+        if not isinstance(row, Mapping) or not {"method", key_c, key_p} <= set(row):
+            raise InvalidArgumentError(
+                f"each row must be a mapping with 'method', {key_c!r} and {key_p!r} (as "
+                f"hopmatch.compare.compare returns), got {_describe(row)}"
+            )
+    fig = _figure((7.0, 4.6))
+    ax = fig.add_subplot(1, 1, 1)
+    methods = list(dict.fromkeys(row["method"] for row in rows))
+    cmap = _tab_colours(len(methods))
+    for k, method in enumerate(methods):
+        pts = [(row[key_c], row[key_p]) for row in rows
+               if row["method"] == method and not np.isnan(row[key_p])]
+        if not pts:
+            continue
+        x, y = zip(*pts)
+        ax.scatter(np.maximum(x, 1), y, label=method, color=cmap[k],
+                   marker=_MARKERS[k % len(_MARKERS)], s=36, alpha=0.85,
+                   edgecolors="black" if method.startswith("hopmatch") else "none",
+                   linewidths=0.6)
+    if not rows:
+        ax.text(0.5, 0.5, "no results", ha="center", va="center", transform=ax.transAxes)
+    ax.set_xscale("log")
+    ax.set_ylim(0.0, 1.02)
+    ax.set_xlabel(f"correct matches (within {threshold:g} px; log scale)")
+    ax.set_ylabel(f"precision@{threshold:g}")
+    n_scenes = len({row.get("scene") for row in rows})
+    ax.set_title(title or f"Precision@{threshold:g} against correct@{threshold:g} "
+                          f"({n_scenes} scene{'s' if n_scenes != 1 else ''})", fontsize=11)
+    ax.grid(True, alpha=0.3, which="both")
+    if methods:
+        ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=8, frameon=False)
+    return _encode_figure(fig, fmt)
+
+
+def _tab_colours(n: int) -> list:
+    from matplotlib import colormaps
+
+    cmap = colormaps["tab20" if n > 10 else "tab10"]
+    return [cmap(i % cmap.N) for i in range(n)]
+
+
+def plot_precision_vs_correct(rows, path, threshold: float = 1.0,
+                              title: str | None = None) -> Path:
+    """Scatter precision against the number of correct matches, one point per method and
+    scene, and save it (atomically) to ``path``.
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        Rows of :func:`hopmatch.compare.compare` (or any mappings with ``method``,
+        ``correct@t`` and ``precision@t``; ``scene`` is used for the title).
+    path : str or os.PathLike
+        Output file; its suffix picks the format (``.png``, ``.pdf``, ``.svg``).
+    threshold : float
+        The tolerance ``t`` of the columns plotted.
+    title : str, optional
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    ImportError
+        matplotlib is not installed (``pip install hopmatch[all]``).
+    """
+    path = Path(path)
+    write_bytes_atomic(path, render_precision_vs_correct(rows, threshold, _format_of(path),
+                                                         title))
+    return path
+
+
+#: Default bin edges of the error histogram, in pixels (|error|).
+ERROR_BINS = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, np.inf)
+
+
+def render_error_histogram(errors_by_method, bins=ERROR_BINS, fmt: str = "png",
+                           title: str | None = None) -> bytes:
+    """The plot of :func:`plot_error_histogram` as encoded bytes."""
+    from .evaluate import error_histogram
+
+    if not isinstance(errors_by_method, Mapping):
+        raise InvalidTypeError(
+            "`errors_by_method` must be a mapping {method name: errors}, got "
+            f"{_describe(errors_by_method)}"
+        )
+    hists = {}
+    for name, err in errors_by_method.items():
+        counts, edges = error_histogram(err, bins=bins)
+        hists[name] = counts / max(int(counts.sum()), 1)
+    fig = _figure((8.0, 4.2))
+    ax = fig.add_subplot(1, 1, 1)
+    if hists:
+        labels = [f"{a:g}–{b:g}" if np.isfinite(b) else f"≥ {a:g}"
+                  for a, b in zip(edges[:-1], edges[1:])]
+        n = len(hists)
+        width = 0.8 / n
+        colours = _tab_colours(n)
+        x = np.arange(len(labels))
+        for k, (name, frac) in enumerate(hists.items()):
+            ax.bar(x - 0.4 + (k + 0.5) * width, frac, width, label=name, color=colours[k])
+        ax.set_xticks(x, labels)
+        ax.legend(loc="upper right", fontsize=8, ncol=2 if n > 6 else 1, frameon=False)
+    else:
+        ax.text(0.5, 0.5, "no errors", ha="center", va="center", transform=ax.transAxes)
+    ax.set_xlabel("|disparity error| (px)")
+    ax.set_ylabel("fraction of scored matches")
+    ax.set_title(title or "Disparity error histogram")
+    ax.grid(True, axis="y", alpha=0.3)
+    return _encode_figure(fig, fmt)
+
+
+def plot_error_histogram(errors_by_method, path, bins=ERROR_BINS,
+                         title: str | None = None) -> Path:
+    """Histogram of absolute disparity errors, one group of bars per bin and one bar per
+    method (fraction of that method's scored matches), saved (atomically) to ``path``.
+
+    Parameters
+    ----------
+    errors_by_method : mapping of str to (N,) array_like
+        Signed or absolute disparity errors (e.g. ``MatchScore.errors``) per method.
+    path : str or os.PathLike
+        Output file; its suffix picks the format.
+    bins : (B + 1,) sequence of float
+        Bin edges on ``|error|`` (see :func:`hopmatch.evaluate.error_histogram`).
+    title : str, optional
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    ImportError
+        matplotlib is not installed (``pip install hopmatch[all]``).
+    """
+    path = Path(path)
+    write_bytes_atomic(path, render_error_histogram(errors_by_method, bins, _format_of(path),
+                                                    title))
     return path
 
 

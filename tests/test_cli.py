@@ -491,3 +491,12 @@ class TestViz:
         with pytest.raises(ImportError, match=r"pip install hopmatch\[all\]"):
             viz.plot_energy([1.0, 0.0], tmp_path / "f.png")
         assert not (tmp_path / "f.png").exists()
+
+
+def test_batch_is_attached_from_the_dask_plugin(tmp_path):
+    """`hopmatch batch` comes from hopmatch_dask, through the real entry point."""
+    res = run("--help")
+    assert res.returncode == 0 and "batch" in res.stdout
+    res = run("batch", tmp_path / "missing.csv", "--out", tmp_path / "out")
+    assert res.returncode == 2
+    assert "missing.csv" in res.stderr and "Traceback" not in res.stderr

@@ -1,0 +1,36 @@
+"""Match quality side by side: hopmatch and OpenCV's matchers on scenes with ground truth.
+
+Run: ``python benchmarks/quality.py [SCENE ...] [--method NAME ...]`` (default: motorcycle,
+every method). Prints the Markdown table (scene x method: matches, correct@1,
+precision@1, recall@1, time ms; single thread). The runner is :mod:`hopmatch.compare`,
+the same as ``hopmatch eval``, which also writes the CSV and plots;
+``hopmatch eval --docs`` regenerates ``docs/results.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import machine  # noqa: E402
+
+from hopmatch import compare  # noqa: E402
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scenes", nargs="*", default=["motorcycle"], metavar="SCENE",
+                        help="'motorcycle' or a folder of ../shared/data, e.g. middlebury/tsukuba")
+    parser.add_argument("--method", action="append", choices=list(compare.METHODS),
+                        help="method to run (repeatable; default: all)")
+    args = parser.parse_args(argv)
+    rows = compare.compare(args.scenes, args.method,
+                           progress=lambda msg: print(f"  {msg}", file=sys.stderr))
+    print(f"Machine: {machine()}\n")
+    print(compare.format_markdown(rows))
+
+
+if __name__ == "__main__":
+    main()
