@@ -217,9 +217,10 @@ class Configurable:
                 raise InvalidArgumentError(f"`fs`: no such file {str(fs)!r}")
             try:
                 storage = cv2.FileStorage(str(fs), cv2.FILE_STORAGE_READ)
-            except cv2.error as exc:
+            except (cv2.error, SystemError) as exc:  # SystemError: some cv2 builds on garbage
+                detail = getattr(exc, "err", None) or str(exc)
                 raise InvalidArgumentError(f"`fs`: {str(fs)!r} is not a readable FileStorage file: "
-                                           f"{exc.err}") from None
+                                           f"{detail}") from None
             try:
                 self.read(storage, name)
             finally:
@@ -247,16 +248,26 @@ class Configurable:
                 values[p.name] = None if text == _NONE_MARK else text
             elif sub.isInt():
                 values[p.name] = int(sub.real())
-            else:
+            elif sub.isReal():
                 values[p.name] = float(sub.real())
-            if isinstance(p.default, bool):
-                if values[p.name] is not None:
-                    values[p.name] = bool(values[p.name])
-            elif isinstance(p.default, float) and isinstance(values[p.name], int):
+            else:  # a sequence, a map or an empty value: not a parameter value
+                kind = "a sequence" if sub.isSeq() else "a map" if sub.isMap() else "no value"
+                raise InvalidTypeError(
+                    f"`fs`: parameter `{p.name}` holds {kind}; expected a single number or "
+                    f"string (see {type(self).__name__}().write(path) for the format)"
+                )
+            if isinstance(p.default, float) and isinstance(values[p.name], int):
                 values[p.name] = float(values[p.name])
+            # booleans are stored as 0/1 and checked by the parameter's own validator, which
+            # refuses any other integer
         merged = dict(self._params)
         merged.update(values)
-        self._init_params(merged)
+        old = self._params
+        try:
+            self._init_params(merged)
+        except Exception:
+            self._params = old  # a bad file leaves the object as it was
+            raise
 
     # -- Python protocols ----------------------------------------------------------------
     def __repr__(self) -> str:
@@ -270,7 +281,18 @@ class Configurable:
         return {"params": dict(self._params)}
 
     def __setstate__(self, state):
-        self._init_params(state["params"])
+        self._init_params(_state_params(self, state))
+
+
+def _state_params(obj, state) -> dict:
+    """The parameter dict of a pickled state, checked (a corrupt or foreign pickle raises
+    :class:`InvalidArgumentError` instead of a KeyError)."""
+    if not isinstance(state, dict) or not isinstance(state.get("params"), dict):
+        raise InvalidArgumentError(
+            f"cannot restore a {type(obj).__name__} from {type(state).__name__} state: "
+            "expected {'params': {...}} as written by pickling one"
+        )
+    return state["params"]
 
 
 def _make_getter(name):

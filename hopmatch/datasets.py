@@ -732,6 +732,21 @@ def load_scene(folder, name: str | None = None) -> StereoScene:
     InvalidArgumentError
         ``meta.json`` or a file it names is missing or malformed, a key is missing, or
         the images and disparity maps disagree in size.
+
+    Examples
+    --------
+    >>> import json, os, tempfile, cv2, numpy as np
+    >>> folder = tempfile.mkdtemp()
+    >>> img = np.zeros((4, 6), np.uint8)
+    >>> _ = cv2.imwrite(os.path.join(folder, "im0.png"), img)
+    >>> _ = cv2.imwrite(os.path.join(folder, "im1.png"), img)
+    >>> _ = cv2.imwrite(os.path.join(folder, "disp.png"), np.full((4, 6), 16, np.uint8))
+    >>> with open(os.path.join(folder, "meta.json"), "w") as f:
+    ...     json.dump({"left": "im0.png", "right": "im1.png", "disp": "disp.png",
+    ...                "scale": 8, "unknown_value": 0}, f)
+    >>> scene = load_scene(folder, name="tiny")
+    >>> scene.name, scene.left.shape, float(scene.disparity[0, 0])
+    ('tiny', (4, 6), 2.0)
     """
     folder = _as_path(folder, "folder")
     meta_path = folder / "meta.json"
@@ -848,6 +863,12 @@ def shared_data_dir(must_exist: bool = True) -> Path | None:
     ------
     InvalidArgumentError
         ``must_exist`` and the folder is absent (the message says where it looked).
+
+    Examples
+    --------
+    >>> path = shared_data_dir(must_exist=False)   # None when the data is absent
+    >>> path is None or (path / "middlebury").is_dir()
+    True
     """
     env = os.environ.get(SHARED_DATA_ENV)
     if env:

@@ -1,6 +1,7 @@
 """hopmatch's error vocabulary.
 
-Every error raised at the public boundary is one of these. They subclass the built-in
+Every error raised at the public boundary is one of these, and every warning hopmatch emits
+is a :class:`HopmatchWarning` (see ``docs/robustness.md``). They subclass the built-in
 ``ValueError`` / ``TypeError`` so that code written for OpenCV or NumPy catches them as it
 already does; each message names the argument, what was expected and what came.
 """
@@ -13,6 +14,10 @@ __all__ = [
     "InvalidTypeError",
     "BudgetExceededError",
     "PairInfoError",
+    "HopmatchWarning",
+    "ImageSizeWarning",
+    "DisparityRangeWarning",
+    "UnrectifiedPairWarning",
 ]
 
 
@@ -21,7 +26,17 @@ class HopmatchError(Exception):
 
 
 class InvalidArgumentError(HopmatchError, ValueError):
-    """An argument has the right type but a value hopmatch cannot use."""
+    """An argument has the right type but a value hopmatch cannot use.
+
+    Examples
+    --------
+    >>> import hopmatch
+    >>> try:
+    ...     hopmatch.DericheMoravecDetector.create(window_size=4)
+    ... except ValueError as exc:          # code written for OpenCV/NumPy catches it
+    ...     print(type(exc).__name__, isinstance(exc, InvalidArgumentError))
+    InvalidArgumentError True
+    """
 
 
 class InvalidTypeError(HopmatchError, TypeError):
@@ -37,3 +52,31 @@ class BudgetExceededError(InvalidArgumentError):
 
 class PairInfoError(InvalidArgumentError):
     """``HopfieldMatcher.match`` was called without, or with inconsistent, pair information."""
+
+
+# -- warnings ------------------------------------------------------------------------------
+#
+# A warning means: the call worked, but the input looks like a mistake that would give poor
+# matches without any error. Silence one kind with
+# ``warnings.simplefilter("ignore", hopmatch.errors.UnrectifiedPairWarning)``, or turn all of
+# them into errors with ``warnings.simplefilter("error", hopmatch.errors.HopmatchWarning)``.
+
+
+class HopmatchWarning(UserWarning):
+    """Base class of every warning hopmatch emits."""
+
+
+class ImageSizeWarning(HopmatchWarning):
+    """The two images of a pair said to be rectified differ in size (``match_stereo``
+    refuses different heights outright; a different width, or a matcher given different
+    sizes through ``setPairInfo``, is warned about)."""
+
+
+class DisparityRangeWarning(HopmatchWarning):
+    """The disparity range cannot fit the image: ``max_disparity`` or ``-min_disparity`` is
+    at least the left image's width, so part of the range can never hold a match."""
+
+
+class UnrectifiedPairWarning(HopmatchWarning):
+    """The pair does not look rectified: the points' best look-alikes in a generous band lie
+    well above or below them (see ``docs/robustness.md``, "Rectification check")."""

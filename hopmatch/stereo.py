@@ -1190,6 +1190,17 @@ def rectify(left, right, calibration, alpha: float = 0.0, *,
     -----
     The maps are computed on each call; for video, compute them once with
     ``cv2.initUndistortRectifyMap`` from the returned calibration.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> K = [[500, 0, 320], [0, 500, 240], [0, 0, 1]]
+    >>> cal = StereoCalibration(K, np.zeros(5), K, np.zeros(5), np.eye(3), [-0.1, 0, 0],
+    ...                         image_size=(640, 480))
+    >>> img = np.zeros((480, 640), np.uint8)
+    >>> left_rect, right_rect, cal = rectify(img, img, cal)
+    >>> left_rect.shape, left_rect.dtype, float(cal.P2[0, 3].round(3))
+    ((480, 640), dtype('uint8'), -50.0)
     """
     left, right = _as_image_pair(left, right)
     cal = _as_calibration(calibration)
@@ -1232,6 +1243,15 @@ def rectify_points(points, calibration, which: str = "left") -> np.ndarray:
     -------
     points : (N, 2) float32 ndarray
         ``(x, y)`` in the rectified image.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> K = [[500, 0, 320], [0, 500, 240], [0, 0, 1]]
+    >>> cal = StereoCalibration(K, np.zeros(5), K, np.zeros(5), np.eye(3), [-0.1, 0, 0],
+    ...                         image_size=(640, 480)).with_rectification()
+    >>> rectify_points([[320, 240], [400, 100]], cal, "left").round(3).tolist()
+    [[320.0, 240.0], [400.0, 100.0]]
     """
     pts = as_points(points, "points")
     cal = _as_calibration(calibration)
@@ -1407,6 +1427,16 @@ def estimate_fundamental(left_pts, right_pts, method: int = cv2.FM_RANSAC,
     InvalidArgumentError
         With fewer than 8 matches, or when OpenCV finds no F (degenerate configuration:
         points on a line or a plane seen without parallax, repeated points...).
+
+    Examples
+    --------
+    >>> import cv2, numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> left = rng.uniform(0, 100, (20, 2)).astype(np.float32)
+    >>> right = left - [[8, 0]] * rng.uniform(1, 3, (20, 1))   # same rows, many depths
+    >>> F, inliers = estimate_fundamental(left, right, cv2.FM_8POINT)
+    >>> F.shape, bool(inliers.all()), bool(epipolar_distances(left, right, F).max() < 1e-3)
+    ((3, 3), True, True)
     """
     left, right = _as_pair(left_pts, right_pts)
     method = _check_option(method, "method", _F_METHODS)
@@ -1462,6 +1492,18 @@ def rectify_uncalibrated(left, right, left_pts, right_pts, F, *, threshold: floa
     -----
     Without calibration the rectification is projective: disparities are not metric and
     strong distortion or near-degenerate matches can give extreme warps.
+
+    Examples
+    --------
+    >>> import cv2, numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> left_pts = rng.uniform(0, 80, (20, 2)).astype(np.float32)
+    >>> right_pts = left_pts - [[4, 0]] * rng.uniform(1, 3, (20, 1))
+    >>> F, _ = estimate_fundamental(left_pts, right_pts, cv2.FM_8POINT)
+    >>> img = rng.integers(0, 255, (60, 80), dtype=np.uint8)
+    >>> left_rect, right_rect, H1, H2 = rectify_uncalibrated(img, img, left_pts, right_pts, F)
+    >>> left_rect.shape, left_rect.dtype, H1.shape
+    ((60, 80), dtype('uint8'), (3, 3))
     """
     left, right = _as_image_pair(left, right)
     lp, rp = _as_pair(left_pts, right_pts)

@@ -10,6 +10,7 @@ import numpy as np
 from .._params import Configurable, Param, boolean, choice, integer, real
 from .._validate import as_gray_image, as_mask, as_points
 from ..errors import InvalidArgumentError, InvalidTypeError
+from .gradient import check_finite_gradient
 from .descriptor import gradient_windows, window_inside
 from .gradient import _deriche
 from .moravec import _select_points, response
@@ -55,6 +56,17 @@ class DericheMoravecDetector(Configurable):
         Refine positions by a quadratic fit of V (see ``docs/parameters.md``).
     descriptor_size : int
         Odd side of the descriptor window (eqs. 7-9).
+    max_pixels : int
+        Largest image (height x width) accepted; larger ones raise
+        :class:`~hopmatch.errors.BudgetExceededError` before any copy is made. Detection
+        needs about 45 bytes per pixel at its peak (plus 4 x ``descriptor_size ** 2`` bytes
+        per keypoint); the default, 50 million pixels, bounds it near 2.2 GiB. See
+        ``docs/robustness.md``.
+
+    Notes
+    -----
+    A detector holds only its parameters: one instance may be shared by threads, as long as
+    no thread changes its parameters meanwhile.
 
     Examples
     --------
@@ -79,6 +91,7 @@ class DericheMoravecDetector(Configurable):
         Param("max_features", 0, integer(0)),
         Param("subpixel", True, boolean()),
         Param("descriptor_size", 9, integer(1, 99, odd=True)),
+        Param("max_pixels", 50_000_000, integer(1)),
     )
 
     PRESETS = {
@@ -93,17 +106,21 @@ class DericheMoravecDetector(Configurable):
     # -- array-level API ------------------------------------------------------------------
     def feature_image(self, image) -> np.ndarray:
         """The float32 image G that points and descriptors are measured on."""
-        return self._feature_image(as_gray_image(image))
+        return self._feature_image(self._gray(image))
 
-    def _feature_image(self, gray: np.ndarray) -> np.ndarray:
+    def _gray(self, image, name: str = "image") -> np.ndarray:
+        """``image`` validated and converted to grey, within the ``max_pixels`` budget."""
+        return as_gray_image(image, name, max_pixels=self._params["max_pixels"])
+
+    def _feature_image(self, gray: np.ndarray, name: str = "image") -> np.ndarray:
         p = self._params
         if p["on"] == "gradient":
-            return _deriche(gray, p["alpha"], p["omega"])
+            return check_finite_gradient(_deriche(gray, p["alpha"], p["omega"]), gray, name)
         return gray.astype(np.float32)
 
     def detect_points(self, image, mask=None):
         """Points as arrays: ``(points (N, 2) float32 (x, y), responses (N,), G)``."""
-        gray = as_gray_image(image)
+        gray = self._gray(image)
         mask = as_mask(mask, gray.shape)
         g = self._feature_image(gray)
         pts, resp = self._points_on(g, mask)
@@ -138,6 +155,7 @@ class DericheMoravecDetector(Configurable):
                 )
             out = [self.compute(im, kp) for im, kp in zip(image, keypoints)]
             return [o[0] for o in out], [o[1] for o in out]
+        keypoints = _as_keypoint_tuple(keypoints)  # check before the costly gradient
         g = self.feature_image(image)
         return self._compute_on(g, keypoints)
 
@@ -155,15 +173,18 @@ class DericheMoravecDetector(Configurable):
 
         With ``useProvidedKeypoints=True``, describe ``keypoints`` instead of detecting.
         """
-        gray = as_gray_image(image)
-        g = self._feature_image(gray)
         if useProvidedKeypoints:
             if keypoints is None:
                 raise InvalidArgumentError(
                     "`keypoints` must be given when useProvidedKeypoints=True"
                 )
+            keypoints = _as_keypoint_tuple(keypoints)
+        gray = self._gray(image)
+        mask = None if useProvidedKeypoints else as_mask(mask, gray.shape)
+        g = self._feature_image(gray)
+        if useProvidedKeypoints:
             return self._compute_on(g, keypoints)
-        pts, resp = self._points_on(g, as_mask(mask, gray.shape))
+        pts, resp = self._points_on(g, mask)
         kps = keypoints_from_arrays(pts, resp, float(self._params["window_size"]))
         return self._compute_on(g, kps)
 
@@ -188,7 +209,10 @@ def _per_image(mask, n):
     if mask is None:
         return [None] * n
     if not isinstance(mask, (list, tuple)) or len(mask) != n:
-        raise InvalidArgumentError(f"`mask` must be None or a list of {n} masks, one per image")
+        got = f"a list of {len(mask)}" if isinstance(mask, (list, tuple)) else type(mask).__name__
+        raise InvalidArgumentError(
+            f"`mask` must be None or a list of {n} masks, one per image, got {got}"
+        )
     return list(mask)
 
 
@@ -197,10 +221,17 @@ def _as_keypoint_tuple(keypoints):
         raise InvalidTypeError("`keypoints` must be a sequence of cv2.KeyPoint, got None")
     if isinstance(keypoints, cv2.KeyPoint):
         return (keypoints,)
-    if not isinstance(keypoints, Sequence):
+    if not isinstance(keypoints, Sequence) or isinstance(keypoints, (str, bytes)):
+        hint = ("; convert an (N, 2) array with cv2.KeyPoint_convert(points)"
+                if isinstance(keypoints, np.ndarray) else "")
         raise InvalidTypeError(
             f"`keypoints` must be a sequence of cv2.KeyPoint, got {type(keypoints).__name__}"
+            f"{hint}"
         )
-    if not all(isinstance(kp, cv2.KeyPoint) for kp in keypoints):
-        raise InvalidTypeError("`keypoints` must hold only cv2.KeyPoint objects")
+    bad = next((kp for kp in keypoints if not isinstance(kp, cv2.KeyPoint)), None)
+    if bad is not None:
+        raise InvalidTypeError(
+            "`keypoints` must hold only cv2.KeyPoint objects, got a "
+            f"{type(bad).__name__}; convert (x, y) pairs with cv2.KeyPoint_convert(points)"
+        )
     return tuple(keypoints)

@@ -9,6 +9,7 @@ import numpy as np
 
 from .._params import real
 from .._validate import as_gray_image
+from ..errors import InvalidArgumentError
 
 
 def deriche_gradient(image, alpha: float = 1.0, omega: float = 0.001) -> np.ndarray:
@@ -44,7 +45,21 @@ def deriche_gradient(image, alpha: float = 1.0, omega: float = 0.001) -> np.ndar
     gray = as_gray_image(image)
     alpha = real(0.0, lo_open=True)("alpha", alpha)
     omega = real(0.0)("omega", omega)
-    return _deriche(gray, alpha, omega)
+    return check_finite_gradient(_deriche(gray, alpha, omega), gray)
+
+
+def check_finite_gradient(g: np.ndarray, gray: np.ndarray, name: str = "image") -> np.ndarray:
+    """Return ``g``, or raise when the float32 filter overflowed (pixels near the float32
+    limit make Gx, Gy or their magnitude infinite): the rest of the pipeline would only see
+    NaN."""
+    if not np.isfinite(g).all():
+        big = float(np.abs(gray).max())
+        raise InvalidArgumentError(
+            f"`{name}` is too large for the float32 gradient filter (largest |pixel| "
+            f"{big:.3g}): its gradient overflows; rescale it first, e.g. "
+            "image / np.abs(image).max()"
+        )
+    return g
 
 
 def border_width(alpha: float) -> int:

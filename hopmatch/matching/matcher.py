@@ -3,15 +3,82 @@
 from __future__ import annotations
 
 import copy
+import warnings
 
 import cv2
 import numpy as np
 
-from .._params import Configurable
-from .._validate import as_descriptors, as_image_size, as_points
-from ..errors import InvalidArgumentError, InvalidTypeError, PairInfoError
-from .network import NetworkResult, run_hopfield_network
+from .._params import Configurable, _state_params
+from .._validate import as_descriptors, as_image_size, as_points, check_coordinate_range
+from ..errors import (
+    BudgetExceededError,
+    DisparityRangeWarning,
+    ImageSizeWarning,
+    InvalidArgumentError,
+    InvalidTypeError,
+    PairInfoError,
+    UnrectifiedPairWarning,
+)
+from .network import (
+    NetworkResult,
+    candidate_pairs,
+    run_hopfield_network,
+    similarity_distance,
+)
 from .params import MATCHER_PARAMS, PRESETS
+
+#: ``record_energy`` keeps one float64 per allowed iteration: refuse more than this many
+#: (1 GiB) rather than let the allocation fail.
+MAX_ENERGY_TRACE = 2**27
+
+# Rectification check (docs/robustness.md): how many left points are sampled, the band
+# searched around them, and when the pair is called unrectified.
+RECTIFICATION_SAMPLE = 300
+RECTIFICATION_MIN_EVIDENCE = 20
+RECTIFICATION_RATIO = 0.8
+RECTIFICATION_MAX_PAIRS = 300_000
+#: The check runs only when the matches are fewer than this fraction of the keypoints (on
+#: the 13 shared scenes with ground truth the defaults keep 4.5 % (KITTI) to 48 %).
+RECTIFICATION_SUSPICIOUS = 0.03
+
+
+def rectification_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity, max_vertical):
+    """Median ``|y_left - y_right|`` of unambiguous best look-alikes in a generous band.
+
+    Up to :data:`RECTIFICATION_SAMPLE` left points (evenly spaced in the keypoint order) are
+    compared by the network's similarity distance with every right point within the
+    disparity range and ``band = max(16, 4 * max_vertical)`` rows. A point counts when its
+    best candidate is clearly better than its second (distance ratio below
+    :data:`RECTIFICATION_RATIO`). Returns ``(median |dy|, number of points counted)``, or
+    None when there is too little to judge (fewer than 2 x RECTIFICATION_MIN_EVIDENCE points
+    on a side, or more than RECTIFICATION_MAX_PAIRS pairs to compare).
+    """
+    if min(len(q_pts), len(t_pts)) < 2 * RECTIFICATION_MIN_EVIDENCE:
+        return None
+    n = min(len(q_pts), RECTIFICATION_SAMPLE)
+    sample = np.unique(np.linspace(0, len(q_pts) - 1, n).astype(np.int64))
+    left = np.ascontiguousarray(q_pts[sample])
+    band = max(16.0, 4.0 * max_vertical)
+    try:
+        ni, nk = candidate_pairs(left, t_pts, min_disparity, max_disparity, band,
+                                 RECTIFICATION_MAX_PAIRS)
+    except BudgetExceededError:
+        return None
+    if len(ni) == 0:
+        return None
+    sim = similarity_distance(np.ascontiguousarray(qd[sample]), td, ni, nk)
+    order = np.lexsort((sim, ni))
+    ni_o, nk_o, sim_o = ni[order], nk[order], sim[order]
+    first = np.flatnonzero(np.r_[True, ni_o[1:] != ni_o[:-1]])
+    counts = np.diff(np.r_[first, len(ni_o)])
+    has_two = counts >= 2
+    best, second = first[has_two], first[has_two] + 1
+    clear = sim_o[best] < RECTIFICATION_RATIO * sim_o[second]
+    best = best[clear]
+    if len(best) < RECTIFICATION_MIN_EVIDENCE:
+        return None
+    dy = left[ni_o[best], 1].astype(np.float64) - t_pts[nk_o[best], 1]
+    return float(np.median(np.abs(dy))), int(len(best))
 
 
 def resolve_max_disparity(max_disparity, query_size, query_pts, train_pts) -> float:
@@ -23,6 +90,44 @@ def resolve_max_disparity(max_disparity, query_size, query_pts, train_pts) -> fl
         return 0.25 * query_size[0]
     xs = [pts[:, 0].max() for pts in (query_pts, train_pts) if len(pts)]
     return 0.25 * (float(max(xs)) + 1.0) if xs else 0.0
+
+
+def neighbour_pairs_bound(points: np.ndarray, half_w: float, half_h: float) -> int:
+    """An upper bound on the number of (ordered) neighbour pairs the network stores: points
+    are bucketed in cells of ``half_w x half_h`` (as the kernel does), and every neighbour
+    of a point lies in the 3 x 3 cells around it. O(N log N) time, O(N) memory."""
+    n = len(points)
+    if n < 2:
+        return 0
+    cw = max(float(half_w) * (1.0 + 1e-6), 1e-3)
+    ch = max(float(half_h) * (1.0 + 1e-6), 1e-3)
+    pts = points.astype(np.float64)
+    cx = np.floor((pts[:, 0] - pts[:, 0].min()) / cw).astype(np.int64) + 1
+    cy = np.floor((pts[:, 1] - pts[:, 1].min()) / ch).astype(np.int64) + 1
+    stride = int(cy.max()) + 2  # coordinates within +-2**20 keep cx * stride in int64
+    keys, counts = np.unique(cx * stride + cy, return_counts=True)
+    around = np.zeros(len(keys), dtype=np.int64)
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            other = keys + dx * stride + dy
+            pos = np.minimum(np.searchsorted(keys, other), len(keys) - 1)
+            around += np.where(keys[pos] == other, counts[pos], 0)
+    return int((counts * around).sum()) - n
+
+
+def _check_neighbour_budget(points: np.ndarray, p: dict) -> None:
+    """Refuse point sets whose neighbour lists alone would exceed ``max_interactions``
+    entries (many coincident or crowded points), before the kernel allocates them."""
+    if len(points) * (len(points) - 1) <= p["max_interactions"]:
+        return
+    bound = neighbour_pairs_bound(points, p["neighbour_width"] / 2, p["neighbour_height"] / 2)
+    if bound > p["max_interactions"]:
+        raise BudgetExceededError(
+            f"the left points are so crowded that their neighbour lists could hold {bound} "
+            f"pairs (an upper bound), more than max_interactions={p['max_interactions']}; "
+            "remove duplicate keypoints, shrink neighbour_width/neighbour_height, use fewer "
+            "keypoints, or raise max_interactions"
+        )
 
 
 def _check_mask(mask, shape):
@@ -52,11 +157,21 @@ class HopfieldMatcher(Configurable):
     Parameters are keyword arguments (see ``docs/parameters.md``), each with a
     ``getX``/``setX`` accessor; ``preset="paper"`` gives the paper's section 4 settings.
 
+    Resource budgets: ``max_neurons`` (candidate pairs) and ``max_interactions`` (stored
+    interactions, and the neighbour lists they are built from) are checked before the
+    network is allocated, raising :class:`~hopmatch.errors.BudgetExceededError`.
+
+    Threads: ``match``/``knnMatch``/``radiusMatch``/``run`` read the pair information
+    once and keep everything else local, so threads may share one matcher as long as none
+    of them calls ``setPairInfo``, ``setFundamentalMatrix`` or a parameter setter
+    meanwhile; ``getLastResult()`` is then the result of whichever call finished last.
+    Give each thread its own matcher (``clone()``) to match different pairs concurrently.
+
     Examples
     --------
     >>> import numpy as np
     >>> rng = np.random.default_rng(0)
-    >>> left = rng.uniform(20, 180, (60, 2)).astype(np.float32)
+    >>> left = rng.uniform(20, 80, (60, 2)).astype(np.float32)   # dense: each has neighbours
     >>> right = left - np.float32([8, 0])            # a fronto-parallel plane, d = 8
     >>> desc = rng.normal(size=(60, 49)).astype(np.float32)
     >>> m = HopfieldMatcher.create(max_disparity=16)
@@ -69,6 +184,15 @@ class HopfieldMatcher(Configurable):
     DEFAULT_NAME = "hopmatch_HopfieldMatcher"
     PARAMS = MATCHER_PARAMS
     PRESETS = PRESETS
+
+    def _check_consistency(self) -> None:
+        p = self._params
+        if p["max_disparity"] is not None and p["max_disparity"] < p["min_disparity"]:
+            raise InvalidArgumentError(
+                f"`max_disparity` ({p['max_disparity']}) must not be below `min_disparity` "
+                f"({p['min_disparity']}); swap them or leave max_disparity=None (a quarter "
+                "of the image width)"
+            )
 
     def __init__(self, **params):
         self._init_params(params)
@@ -90,6 +214,8 @@ class HopfieldMatcher(Configurable):
         """
         q = as_points(queryKpts, "queryKpts")
         t = as_points(trainKpts, "trainKpts")
+        check_coordinate_range(q, "queryKpts")
+        check_coordinate_range(t, "trainKpts")
         self._pair = (q, t, as_image_size(queryImageSize, "queryImageSize"),
                       as_image_size(trainImageSize, "trainImageSize"))
 
@@ -112,13 +238,25 @@ class HopfieldMatcher(Configurable):
     # -- matching ------------------------------------------------------------------------
     def run(self, queryDescriptors, trainDescriptors, mask=None,  # noqa: N803
             record_energy: bool = False) -> NetworkResult:
-        """Run the network and return everything it computed (:class:`NetworkResult`)."""
-        if self._pair is None:
+        """Run the network and return everything it computed (:class:`NetworkResult`).
+
+        Warns (:class:`~hopmatch.errors.HopmatchWarning` subclasses) when the images differ
+        in size, when the disparity range is wider than the left image, or when the pair
+        does not look rectified; see ``docs/robustness.md``.
+        """
+        return self._run(queryDescriptors, trainDescriptors, mask, record_energy)[0]
+
+    def _run(self, queryDescriptors, trainDescriptors, mask=None,  # noqa: N803
+             record_energy: bool = False):
+        """:meth:`run`, also returning the pair information it used (read once, so that a
+        concurrent ``setPairInfo`` cannot mix two pairs in one call)."""
+        pair, fundamental = self._pair, self._fundamental
+        if pair is None:
             raise PairInfoError(
                 "no pair information: call setPairInfo(queryKpts, trainKpts, queryImageSize, "
                 "trainImageSize) before matching"
             )
-        q_pts, t_pts, q_size, _ = self._pair
+        q_pts, t_pts, q_size, t_size = pair
         qd = as_descriptors(queryDescriptors, "queryDescriptors")
         td = as_descriptors(trainDescriptors, "trainDescriptors")
         if len(qd) != len(q_pts) or len(td) != len(t_pts):
@@ -140,10 +278,56 @@ class HopfieldMatcher(Configurable):
                 f"`max_disparity` ({p['max_disparity']}) must not be below `min_disparity` "
                 f"({p['min_disparity']})"
             )
-        self._last = run_hopfield_network(q_pts, t_pts, qd, td, p, mask=mask,
-                                          record_energy=record_energy,
-                                          fundamental=self._fundamental)
-        return self._last
+        if record_energy and p["max_iterations"] + 1 > MAX_ENERGY_TRACE:
+            raise BudgetExceededError(
+                f"record_energy=True keeps one float64 per iteration, and max_iterations="
+                f"{p['max_iterations']} would need {8 * (p['max_iterations'] + 1) / 2**30:.3g} "
+                f"GiB; lower max_iterations to at most {MAX_ENERGY_TRACE - 1} or pass "
+                "record_energy=False"
+            )
+        _check_neighbour_budget(q_pts, p)
+        self._warn_geometry(pair, fundamental, qd, td, p)
+        result = run_hopfield_network(q_pts, t_pts, qd, td, p, mask=mask,
+                                      record_energy=record_energy, fundamental=fundamental)
+        if len(result.query_idx) < RECTIFICATION_SUSPICIOUS * min(len(q_pts), len(t_pts)):
+            self._warn_unrectified(pair, fundamental, qd, td, p)
+        self._last = result
+        return result, pair
+
+    def _warn_geometry(self, pair, fundamental, qd, td, p) -> None:
+        """The warnings of :meth:`run` (docs/robustness.md, "Warnings")."""
+        q_pts, t_pts, q_size, t_size = pair
+        if fundamental is None and q_size is not None and t_size is not None \
+                and q_size != t_size:
+            warnings.warn(
+                f"the query image is {q_size[0]} x {q_size[1]} and the train image "
+                f"{t_size[0]} x {t_size[1]} (width x height): a rectified pair has images of "
+                "one size; rectify the pair first or call setFundamentalMatrix(F)",
+                ImageSizeWarning, stacklevel=4)
+        if q_size is not None and (p["max_disparity"] >= q_size[0]
+                                   or -p["min_disparity"] >= q_size[0]):
+            warnings.warn(
+                f"the disparity range [{p['min_disparity']:g}, {p['max_disparity']:g}] does "
+                f"not fit the left image's width ({q_size[0]} px): disparities beyond it can "
+                "never occur and only add candidates; narrow the range (max_disparity)",
+                DisparityRangeWarning, stacklevel=4)
+
+    def _warn_unrectified(self, pair, fundamental, qd, td, p) -> None:
+        """The unrectified-pair warning of :meth:`run`; it is only looked for when the
+        network kept few matches (below :data:`RECTIFICATION_SUSPICIOUS` of the keypoints),
+        so rectified pairs do not pay for it."""
+        q_pts, t_pts = pair[0], pair[1]
+        if fundamental is None and len(qd) and len(td):
+            ev = rectification_evidence(q_pts, t_pts, qd, td, p["min_disparity"],
+                                        p["max_disparity"], p["max_vertical"])
+            if ev is not None and ev[0] > max(2.0, 2.0 * p["max_vertical"]):
+                warnings.warn(
+                    f"the pair does not look rectified: the clearest look-alikes of "
+                    f"{ev[1]} sampled left points lie a median {ev[0]:.1f} px above or below "
+                    f"them (max_vertical={p['max_vertical']:g}), so few true matches can be "
+                    "found; rectify the pair (hopmatch.stereo.rectify) or call "
+                    "setFundamentalMatrix(F)",
+                    UnrectifiedPairWarning, stacklevel=4)
 
     def match(self, queryDescriptors, trainDescriptors, mask=None):  # noqa: N803
         """The network's matches after disambiguation and the left-right check.
@@ -151,7 +335,7 @@ class HopfieldMatcher(Configurable):
         Returns a tuple of ``cv2.DMatch`` (queryIdx = left point, trainIdx = right point),
         ordered by queryIdx.
         """
-        res = self.run(queryDescriptors, trainDescriptors, mask)
+        res = self._run(queryDescriptors, trainDescriptors, mask)[0]
         return tuple(
             cv2.DMatch(int(q), int(t), float(d))
             for q, t, d in zip(res.query_idx.tolist(), res.train_idx.tolist(),
@@ -170,9 +354,9 @@ class HopfieldMatcher(Configurable):
         out.
         """
         k = _positive_int(k, "k")
-        res = self.run(queryDescriptors, trainDescriptors, mask)
-        n_train = len(self._pair[1])
-        ranked = self._ranked_candidates(res)
+        res, pair = self._run(queryDescriptors, trainDescriptors, mask)
+        n_train = len(pair[1])
+        ranked = self._ranked_candidates(res, len(pair[0]))
         out = []
         for qi, (cands, dists) in enumerate(ranked):
             if compactResult and not cands:
@@ -195,16 +379,20 @@ class HopfieldMatcher(Configurable):
         """Every candidate with ``distance <= maxDistance``, per query, best first."""
         if isinstance(maxDistance, bool) or not isinstance(maxDistance, (int, float, np.number)):
             raise InvalidTypeError(f"`maxDistance` must be a number, got {maxDistance!r}")
-        res = self.run(queryDescriptors, trainDescriptors, mask)
+        if maxDistance != maxDistance:
+            raise InvalidArgumentError(
+                "`maxDistance` must be a number (distances lie in [0, 1]), got NaN"
+            )
+        res, pair = self._run(queryDescriptors, trainDescriptors, mask)
         out = []
-        for qi, (cands, dists) in enumerate(self._ranked_candidates(res)):
+        for qi, (cands, dists) in enumerate(self._ranked_candidates(res, len(pair[0]))):
             row = [cv2.DMatch(qi, t, d) for t, d in zip(cands, dists) if d <= maxDistance]
             if row or not compactResult:
                 out.append(row)
         return out
 
-    def _ranked_candidates(self, res: NetworkResult):
-        n_query = len(self._pair[0])
+    @staticmethod
+    def _ranked_candidates(res: NetworkResult, n_query: int):
         with np.errstate(over="ignore"):
             dist = 1.0 / (1.0 + np.exp(res.fields))
         order = np.lexsort((res.neuron_right, dist, res.neuron_left))
@@ -250,7 +438,7 @@ class HopfieldMatcher(Configurable):
         return {"params": dict(self._params)}
 
     def __setstate__(self, state):
-        self._init_params(state["params"])
+        self._init_params(_state_params(self, state))
         self._pair = None
         self._fundamental = None
         self._last = None

@@ -9,8 +9,10 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from .._validate import as_gray_image, as_mask
-from ..errors import InvalidArgumentError
+import warnings
+
+from .._validate import as_mask
+from ..errors import ImageSizeWarning, InvalidArgumentError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
 from ..feature.descriptor import gradient_windows, window_inside
 from .matcher import HopfieldMatcher
@@ -84,9 +86,10 @@ class StereoMatchResult:
 
 
 def _describe(detector, image, mask):
-    gray = as_gray_image(image, "left" if mask[1] == "mask_left" else "right")
+    name = "left" if mask[1] == "mask_left" else "right"
+    gray = detector._gray(image, name)
     m = as_mask(mask[0], gray.shape, mask[1])
-    g = detector._feature_image(gray)
+    g = detector._feature_image(gray, name)
     pts, resp = detector._points_on(g, m)
     size = detector.getDescriptorSize()
     keep = window_inside(pts, g.shape, size)
@@ -149,9 +152,17 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
             f"`left` and `right` must have the same height (a rectified pair), got "
             f"{shape_l[0]} and {shape_r[0]}; for an unrectified pair pass fundamental_matrix"
         )
-    matcher.setPairInfo(pts_l, pts_r, shape_l[::-1], shape_r[::-1])
     matcher.setFundamentalMatrix(fundamental_matrix)
-    net = matcher.run(desc_l, desc_r, record_energy=record_energy)
+    size_l, size_r = shape_l[::-1], shape_r[::-1]
+    if fundamental_matrix is None and shape_l[1] != shape_r[1]:
+        warnings.warn(
+            f"`left` is {shape_l[1]} px wide and `right` {shape_r[1]} px: the images of a "
+            "rectified pair have one size; matching goes on (disparities are measured from "
+            "the left edge of both), but check that the pair is the one you meant",
+            ImageSizeWarning, stacklevel=2)
+        size_r = size_l  # warned once here; the matcher need not repeat it
+    matcher.setPairInfo(pts_l, pts_r, size_l, size_r)
+    net = matcher._run(desc_l, desc_r, None, record_energy)[0]  # warnings: stacklevel 4 = our caller
     t3 = time.perf_counter()
     return StereoMatchResult(
         points_left=pts_l, points_right=pts_r, responses_left=resp_l, responses_right=resp_r,

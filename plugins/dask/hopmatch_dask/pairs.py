@@ -141,7 +141,13 @@ def read_pairs(path) -> list[Pair]:
 
 def as_pairs(pairs) -> list[Pair]:
     """``pairs`` (``Pair``, ``(left, right)`` or ``(left, right, name)`` items) as a list of
-    :class:`Pair`; unnamed pairs are named ``pair-0000``, ``pair-0001``... by position."""
+    :class:`Pair`; unnamed pairs are named ``pair-0000``, ``pair-0001``... by position.
+
+    Examples
+    --------
+    >>> [p.name for p in as_pairs([("a/l.png", "a/r.png"), ("b/l.png", "b/r.png", "b")])]
+    ['pair-0000', 'b']
+    """
     if isinstance(pairs, (str, bytes, os.PathLike)):
         raise InvalidTypeError(
             "`pairs` must be a sequence of (left, right[, name]) items; to read PAIRS.csv use "

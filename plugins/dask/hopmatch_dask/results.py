@@ -25,7 +25,14 @@ def _f32(values) -> list[str]:
 
 
 def matches_table(matched_left, matched_right, disparities, distances) -> str:
-    """The CSV text of ``hopmatch match``'s matches.csv, from the arrays of a result."""
+    """The CSV text of ``hopmatch match``'s matches.csv, from the arrays of a result.
+
+    Examples
+    --------
+    >>> print(matches_table([[10, 5]], [[4, 5]], [6], [0.25]), end="")
+    left_x,left_y,right_x,right_y,disparity,distance
+    10.0,5.0,4.0,5.0,6.0,0.25
+    """
     ml = np.asarray(matched_left, np.float32).reshape(-1, 2)
     mr = np.asarray(matched_right, np.float32).reshape(-1, 2)
     cols = [_f32(ml[:, 0]), _f32(ml[:, 1]), _f32(mr[:, 0]), _f32(mr[:, 1]),
@@ -43,6 +50,19 @@ def complete_rows(path) -> int | None:
     Complete: it exists, has the header of :data:`COLUMNS`, ends with a newline and every
     line holds six numbers. Files are renamed into place only when fully written, so an
     incomplete one was damaged afterwards; it is computed again.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "pair.csv")
+    >>> with open(path, "w") as f:
+    ...     _ = f.write(matches_table([[10, 5]], [[4, 5]], [6], [0.25]))
+    >>> complete_rows(path)
+    1
+    >>> with open(path, "a") as f:
+    ...     _ = f.write("1.0,2.0")             # cut short
+    >>> complete_rows(path) is None
+    True
     """
     try:
         text = Path(path).read_text(encoding="utf-8")

@@ -25,7 +25,16 @@ def stereo_graph() -> "cv.GComputation":
 
 
 def as_arrays(ml, mr, disp) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """G-API outputs (tuples) as ``(M, 2) float32, (M, 2) float32, (M,) float32`` arrays."""
+    """G-API outputs (tuples) as ``(M, 2) float32, (M, 2) float32, (M,) float32`` arrays.
+
+    Examples
+    --------
+    >>> ml, mr, disp = as_arrays([(10.0, 5.0)], [(4.0, 5.0)], [6.0])
+    >>> ml.shape, mr.dtype, disp.tolist()
+    ((1, 2), dtype('float32'), [6.0])
+    >>> [a.shape for a in as_arrays([], [], [])]     # no match keeps the shapes
+    [(0, 2), (0, 2), (0,)]
+    """
     return (np.asarray(ml, np.float32).reshape(-1, 2), np.asarray(mr, np.float32).reshape(-1, 2),
             np.asarray(disp, np.float32).reshape(-1))
 

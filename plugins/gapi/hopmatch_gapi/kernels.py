@@ -12,7 +12,6 @@ import cv2 as cv
 import numpy as np
 
 import hopmatch
-from hopmatch._validate import as_gray_image
 from hopmatch.errors import InvalidArgumentError
 from hopmatch.feature.descriptor import gradient_windows, window_inside
 
@@ -50,7 +49,7 @@ def _points(pts) -> np.ndarray:
 
 def _describe_and_match(detector, matcher, left, pts_left, right, pts_right):
     """The describe + match half of :func:`hopmatch.match_stereo`, on given points."""
-    gl, gr = as_gray_image(left, "left"), as_gray_image(right, "right")
+    gl, gr = detector._gray(left, "left"), detector._gray(right, "right")
     if gl.shape[0] != gr.shape[0]:
         raise InvalidArgumentError(
             f"`left` and `right` must have the same height (a rectified pair), got "
