@@ -48,6 +48,12 @@ def warmup() -> float:
     """Compile every Numba kernel now (on tiny inputs) and return the seconds it took.
 
     With the on-disk cache warm (``cache=True``, the default) this only loads machine code.
+
+    Examples
+    --------
+    >>> seconds = warmup()
+    >>> seconds >= 0.0
+    True
     """
     from ._warmup import warmup as _warmup
 

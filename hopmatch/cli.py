@@ -4,7 +4,8 @@ Usage::
 
     hopmatch demo [--out DIR]
     hopmatch match LEFT RIGHT --out DIR [--preset default|paper] [--max-disparity N]
-                   [--format csv|json] [--no-draw] [--plot-energy] [--window-size N ...]
+                   [--format csv|json] [--no-draw] [--plot-energy] [--figures]
+                   [--window-size N ...]
     hopmatch detect IMAGE --out DIR [--window-size N ...]
     hopmatch eval [--scene NAME ...] [--method NAME ...] [--out DIR] [--docs] [--draw]
                   [--repeat N]
@@ -616,6 +617,19 @@ def _draw_match_images(outputs, left, right, result, correct=None, known=None,
     outputs.add_image("disparity.png", disp)
 
 
+def _draw_paper_figures(outputs, left, right, result, detector):
+    """The paper's Figure 5 (points over the gradient image, each side) and Figure 7
+    (numbered matches), staged with the other outputs."""
+    _status("drawing the paper's figures")
+    outputs.add_image("figure5_left.png",
+                      viz.draw_keypoints_on_gradient(left, result.points_left, detector))
+    outputs.add_image("figure5_right.png",
+                      viz.draw_keypoints_on_gradient(right, result.points_right, detector))
+    outputs.add_image("figure7.png", viz.draw_labelled_matches(
+        left, right, result.points_left, result.points_right,
+        np.stack([result.query_idx, result.train_idx], axis=1)))
+
+
 def _counts(result) -> dict:
     net = result.network
     return {
@@ -724,14 +738,18 @@ def demo(ctx, out):
 @click.option("--no-draw", is_flag=True, help="Do not write matches.png and disparity.png.")
 @click.option("--plot-energy", is_flag=True,
               help="Record the network energy and plot it to energy.png (needs matplotlib).")
+@click.option("--figures", is_flag=True,
+              help="Also draw the paper's figures: figure5_left.png, figure5_right.png "
+                   "(points over the gradient magnitude) and figure7.png (numbered matches).")
 @_param_options(DericheMoravecDetector, HopfieldMatcher)
 @click.pass_context
-def match(ctx, left, right, out, fmt, no_draw, plot_energy, **params):
+def match(ctx, left, right, out, fmt, no_draw, plot_energy, figures, **params):
     """Match a rectified stereo pair LEFT RIGHT (image files of the same height).
 
     Writes matches.csv (left_x,left_y,right_x,right_y,disparity,distance; or matches.json),
-    matches.png and disparity.png (unless --no-draw), energy.png (--plot-energy) and
-    run.json (parameters, versions, timings, counts) into DIR.
+    matches.png and disparity.png (unless --no-draw), energy.png (--plot-energy),
+    figure5_left.png, figure5_right.png and figure7.png (--figures) and run.json
+    (parameters, versions, timings, counts) into DIR.
     """
     t_start = time.perf_counter()
     det_given = _given(params, DericheMoravecDetector)
@@ -771,6 +789,8 @@ def match(ctx, left, right, out, fmt, no_draw, plot_energy, **params):
         if plot_energy:
             _status("plotting the energy")
             outputs.add("energy.png", viz.render_energy(result.network.energy_trace, "png"))
+        if figures:
+            _draw_paper_figures(outputs, img_l, img_r, result, detector)
         t_out = time.perf_counter() - t1
         counts = _counts(result)
         used = resolve_max_disparity(max_disp, img_l.shape[1::-1], result.points_left,
@@ -781,7 +801,7 @@ def match(ctx, left, right, out, fmt, no_draw, plot_energy, **params):
             parameters={"given": {k: v for k, v in {**det_given, **match_given}.items()},
                         "detector": detector.get_params(), "matcher": matcher.get_params(),
                         "max_disparity_used": used, "record_energy": plot_energy,
-                        "format": fmt, "draw": not no_draw},
+                        "format": fmt, "draw": not no_draw, "figures": figures},
             counts=counts,
             energy=float(result.network.energy),
             timings_ms={"read": _ms(t_read), "warmup": _ms(t_warm), **{k: _ms(v) for k, v in result.timings.items()},
