@@ -30,9 +30,7 @@ Progress is a status line on stderr, shown only when stderr is a terminal and no
 
 from __future__ import annotations
 
-import contextlib
 import csv
-import errno
 import importlib
 import io
 import json
@@ -40,7 +38,6 @@ import os
 import platform
 import re
 import sys
-import tempfile
 import time
 import traceback
 from datetime import datetime, timezone
@@ -52,6 +49,7 @@ import numpy as np
 
 import hopmatch
 
+from . import imageio
 from .errors import HopmatchError
 from .feature.detector import DericheMoravecDetector
 from .matching.matcher import HopfieldMatcher, resolve_max_disparity
@@ -283,73 +281,12 @@ def _given(kwargs: dict, cls) -> dict:
 # --------------------------------------------------------------------------------------
 
 
-def _reason(exc: OSError) -> str:
-    return {
-        errno.ENOTDIR: "a part of the path is a file, not a folder",
-        errno.EEXIST: "a file of that name exists",
-        errno.EACCES: "permission denied",
-        errno.EPERM: "permission denied",
-        errno.EROFS: "read-only file system",
-        errno.ENOSPC: "no space left on the device",
-        errno.ENOENT: "no such file or folder",
-    }.get(exc.errno, exc.strerror or str(exc))
-
-
 def read_image(path: str) -> np.ndarray:
-    """Read an image file as ``cv2.imread(path, IMREAD_ANYDEPTH | IMREAD_ANYCOLOR)`` would.
-
-    Raises :class:`CLIError` naming ``path`` when it is missing, a folder, unreadable or
-    not an image OpenCV can decode. OpenCV's own warnings are silenced.
-    """
-    p = Path(path)
-    if not p.exists():
-        raise CLIError(path, "no such file")
-    if p.is_dir():
-        raise CLIError(path, "is a folder, not an image file")
+    """:func:`hopmatch.imageio.read_image`, its error as a :class:`CLIError`."""
     try:
-        data = p.read_bytes()
-    except OSError as exc:
-        raise CLIError(path, f"cannot read the file: {_reason(exc)}") from None
-    if not data:
-        raise CLIError(path, "is empty (0 bytes), not an image")
-    with _captured_fd2() as captured:
-        logging = cv2.utils.logging
-        old = logging.getLogLevel()
-        logging.setLogLevel(logging.LOG_LEVEL_SILENT)
-        try:
-            image = cv2.imdecode(np.frombuffer(data, np.uint8),
-                                 cv2.IMREAD_ANYDEPTH | cv2.IMREAD_ANYCOLOR)
-        except cv2.error:
-            image = None
-        finally:
-            logging.setLogLevel(old)
-    if image is None or image.size == 0:
-        detail = _one_line(captured.get("text", ""))
-        raise CLIError(path, "is not an image OpenCV can read (corrupt, truncated or of an "
-                             "unsupported format)" + (f" [{detail}]" if detail else ""))
-    return image
-
-
-@contextlib.contextmanager
-def _captured_fd2():
-    """Collect what C libraries write to file descriptor 2 (libpng prints its errors there)
-    into ``captured["text"]`` instead of the terminal."""
-    captured: dict = {}
-    try:
-        sys.stderr.flush()
-        saved = os.dup(2)
-    except (OSError, AttributeError, ValueError):  # no real fd 2: nothing to capture
-        yield captured
-        return
-    with tempfile.TemporaryFile() as sink:
-        os.dup2(sink.fileno(), 2)
-        try:
-            yield captured
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            sink.seek(0)
-            captured["text"] = sink.read(2000).decode("utf-8", "replace")
+        return imageio.read_image(path)
+    except imageio.ImageReadError as exc:
+        raise CLIError(exc.path, exc.problem) from None
 
 
 class Outputs:
@@ -378,19 +315,19 @@ class Outputs:
             self.path.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             self._remove_created(missing)
-            raise CLIError(self.label, f"cannot create the folder: {_reason(exc)}") from None
+            raise CLIError(self.label, f"cannot create the folder: {imageio.os_reason(exc)}") from None
         self.created = missing
         try:
             os.unlink(viz.write_temp(self.path, "write-test", b""))
         except OSError as exc:
             self.abort()
-            raise CLIError(self.label, f"cannot write in the folder: {_reason(exc)}") from None
+            raise CLIError(self.label, f"cannot write in the folder: {imageio.os_reason(exc)}") from None
 
     def add(self, name: str, data: bytes) -> None:
         try:
             tmp = viz.write_temp(self.path, name, data)
         except OSError as exc:
-            raise CLIError(str(self.path / name), f"cannot write: {_reason(exc)}") from None
+            raise CLIError(str(self.path / name), f"cannot write: {imageio.os_reason(exc)}") from None
         self.staged.append((tmp, self.path / name))
         self.names.append(name)
 
@@ -410,7 +347,7 @@ class Outputs:
             for final in done:
                 _unlink(final)
             self.abort()
-            raise CLIError(self.label, f"cannot rename the finished files: {_reason(exc)}") \
+            raise CLIError(self.label, f"cannot rename the finished files: {imageio.os_reason(exc)}") \
                 from None
         self.staged = []
 

@@ -13,7 +13,6 @@ from concurrent.futures import ThreadPoolExecutor
 
 import cv2
 import numpy as np
-import pytest
 
 import hopmatch
 from hopmatch import DericheMoravecDetector, HopfieldMatcher

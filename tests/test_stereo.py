@@ -157,7 +157,7 @@ class TestDisparity:
 
 class TestDepth:
     def test_focal_baseline_exact_on_rectified_pair(self, scene):
-        f, b, cx, cy = 500.0, 0.1, 320.0, 240.0
+        f, b, cx = 500.0, 0.1, 320.0
         X, Y, Z = scene.T
         xl = f * X / Z + cx
         xr = f * (X - b) / Z + cx

@@ -12,19 +12,16 @@ import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 import hopmatch
 from hopmatch.errors import HopmatchError, InvalidArgumentError
 
+from hopmatch.imageio import ImageReadError, read_image
+
 from .results import matches_table
 
 __all__ = ["ImageReadError", "PairResult", "batch_task", "match_pair", "read_image"]
-
-
-class ImageReadError(InvalidArgumentError):
-    """An image file is missing, unreadable or not an image OpenCV can decode."""
 
 
 @dataclass(eq=False)
@@ -55,37 +52,6 @@ class PairResult:
         """The table ``hopmatch match`` writes to matches.csv."""
         return matches_table(self.matched_left, self.matched_right, self.disparities,
                              self.distances)
-
-
-def read_image(path) -> np.ndarray:
-    """``cv2.imread(path, IMREAD_ANYDEPTH | IMREAD_ANYCOLOR)`` that raises
-    :class:`ImageReadError` naming ``path`` instead of returning None."""
-    label = os.fspath(path)
-    p = Path(path)
-    try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise ImageReadError(f"{label}: no such file") from None
-    except IsADirectoryError:
-        raise ImageReadError(f"{label}: is a folder, not an image file") from None
-    except OSError as exc:
-        raise ImageReadError(f"{label}: cannot read the file: {exc.strerror or exc}") from None
-    if not data:
-        raise ImageReadError(f"{label}: is empty (0 bytes), not an image")
-    log = cv2.utils.logging
-    old = log.getLogLevel()
-    log.setLogLevel(log.LOG_LEVEL_SILENT)
-    try:
-        image = cv2.imdecode(np.frombuffer(data, np.uint8),
-                             cv2.IMREAD_ANYDEPTH | cv2.IMREAD_ANYCOLOR)
-    except cv2.error:
-        image = None
-    finally:
-        log.setLogLevel(old)
-    if image is None or image.size == 0:
-        raise ImageReadError(f"{label}: is not an image OpenCV can read (corrupt, truncated "
-                             "or of an unsupported format)")
-    return image
 
 
 def _image(value, side: str) -> np.ndarray:
