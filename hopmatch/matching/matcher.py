@@ -35,7 +35,7 @@ MAX_ENERGY_TRACE = 2**27
 # searched around them, and when the pair is called unrectified.
 RECTIFICATION_SAMPLE = 300
 RECTIFICATION_MIN_EVIDENCE = 20
-RECTIFICATION_RATIO = 0.8
+RECTIFICATION_RATIO = 0.6
 RECTIFICATION_MAX_PAIRS = 300_000
 #: The check runs only when the matches are fewer than this fraction of the keypoints (on
 #: the 13 shared scenes with ground truth the defaults keep 4.5 % (KITTI) to 48 %).
