@@ -36,11 +36,18 @@ tutorial) and scale with it; the figures in squares do not depend on it.
 Usage::
 
     python examples/stereo_calibration.py [--pair NN] [--square-size MM] [--out DIR]
+                                          [--all-pairs]
 
     --pair NN          which pair to rectify, match and triangulate (default 01)
     --square-size MM   chessboard square size in mm for the mm figures (default 30)
     --out DIR          where to write stereo_calibration.ply and
                        stereo_calibration_rectified.png (default ./hopmatch-examples)
+    --all-pairs        also rectify every pair in which the board was found and print,
+                       per pair and over all pairs together, the share of matches with
+                       |dy| <= 1 px for search bands of ALL_PAIRS_BANDS = 4, 3, 2 and
+                       1.5 px, and the |dy| of the chessboard corners detected again in
+                       the rectified images (figures only: the checks stay those of
+                       --pair)
 
 Exit status: 0 when every check passes, 1 when one fails (the message says which), 2 when
 ``../shared/data`` (or ``$HOPMATCH_SHARED_DATA``) is missing or a pair cannot be read.
@@ -65,6 +72,7 @@ PATTERN = (9, 6)          #: inner corners per row, per column
 RMS_GOAL = 1.0            #: px, calibration RMS reprojection error
 DY_GOAL = 0.95            #: fraction of matches with |dy| <= 1 px after rectification
 DY_BAND = 4.0             #: px, search band of the rectification check run
+ALL_PAIRS_BANDS = (DY_BAND, 3.0, 2.0, 1.5)  #: px, search bands printed by --all-pairs
 PLANE_TOLERANCE = 0.05    #: squares, RMS distance of the corners to their plane
 SPACING_TOLERANCE = 0.02  #: relative error of the triangulated square size
 CORNER_NOISE_PX = 0.1     #: assumed corner localisation error, for the expected figure
@@ -138,6 +146,9 @@ def main(argv=None) -> int:
     parser.add_argument("--square-size", type=float, default=30.0,
                         help="chessboard square size in mm (default 30, assumed)")
     parser.add_argument("--out", default="hopmatch-examples", help="output folder")
+    parser.add_argument("--all-pairs", action="store_true",
+                        help="also print the |dy| figures of every pair and of all pairs "
+                             "together (figures only)")
     args = parser.parse_args(argv)
     if not args.square_size > 0:
         parser.error("--square-size must be positive")
@@ -163,6 +174,7 @@ def main(argv=None) -> int:
 
     left = cv2.imread(str(folder / f"left{args.pair}.jpg"))
     right = cv2.imread(str(folder / f"right{args.pair}.jpg"))
+    cal_all = cal  # before rectify() adds one pair's rectification
     left_r, right_r, cal = rectify(left, right, cal, alpha=0.0)
     cv2.imwrite(os.path.join(args.out, "stereo_calibration_rectified.png"),
                 _with_rows(np.hstack([left_r, right_r])))
@@ -228,9 +240,67 @@ def main(argv=None) -> int:
         if not abs(spacing - 1.0) <= SPACING_TOLERANCE:
             failures.append(f"the triangulated square size is {spacing:.4f} squares "
                             f"(tolerance {SPACING_TOLERANCE:.0%})")
+    if args.all_pairs:
+        all_pairs(folder, used, cal_all)
     for failure in failures:
         print(f"stereo_calibration: FAILED: {failure}", file=sys.stderr)
     return 1 if failures else 0
+
+
+def rectified_corners(left_r, right_r):
+    """Corners detected again in a rectified pair, ``(left, right)`` in the same order, or
+    None when the board is not found in one of the images."""
+    cl = corners(cv2.cvtColor(left_r, cv2.COLOR_BGR2GRAY))
+    cr = corners(cv2.cvtColor(right_r, cv2.COLOR_BGR2GRAY))
+    if cl is None or cr is None:
+        return None
+    if abs(cl[0, 1] - cr[0, 1]) > abs(cl[0, 1] - cr[-1, 1]):
+        cr = cr[::-1].copy()  # the two detections started from opposite corners
+    return cl, cr
+
+
+def all_pairs(folder, used, cal):
+    """``--all-pairs``: the |dy| figures of every pair in ``used`` and of all of them
+    together (matches for each band of ``ALL_PAIRS_BANDS``, and chessboard corners)."""
+    pooled = {band: [] for band in ALL_PAIRS_BANDS}
+    per_pair = {band: [] for band in ALL_PAIRS_BANDS}
+    corner_dy, worst = [], (-1.0, None, None)
+    for i in used:
+        left = cv2.imread(str(folder / f"left{i}.jpg"))
+        right = cv2.imread(str(folder / f"right{i}.jpg"))
+        left_r, right_r, _ = rectify(left, right, cal, alpha=0.0)
+        cells = []
+        for band in ALL_PAIRS_BANDS:
+            res = hopmatch.match_stereo(left_r, right_r, max_vertical=band)
+            dy = np.abs(res.matched_left[:, 1] - res.matched_right[:, 1])
+            pooled[band].append(dy)
+            frac = float(np.mean(dy <= 1.0)) if len(dy) else float("nan")
+            per_pair[band].append(frac)
+            cells.append(f"band {band:g} px: {frac:.1%} of {len(dy)}")
+        found = rectified_corners(left_r, right_r)
+        if found is None:
+            cells.append("corners: board not found after rectification")
+        else:
+            cl, cr = found
+            cdy = np.abs(cl[:, 1] - cr[:, 1])
+            corner_dy.append(cdy)
+            k = int(np.argmax(cdy))
+            if cdy[k] > worst[0]:
+                worst = (float(cdy[k]), i, cl[k])
+            cells.append(f"corner |dy| median {np.median(cdy):.2f} px, max {cdy.max():.2f} px")
+        print(f"all pairs: pair {i}: matches with |dy| <= 1 px: " + "; ".join(cells))
+    for band in ALL_PAIRS_BANDS:
+        dy = np.concatenate(pooled[band])
+        fracs = [f for f in per_pair[band] if np.isfinite(f)]
+        print(f"all pairs: band {band:g} px: {np.mean(dy <= 1.0):.1%} of {len(dy)} matches "
+              f"with |dy| <= 1 px (per pair {min(fracs):.1%}..{max(fracs):.1%}; "
+              f"median |dy| {np.median(dy):.2f} px)")
+    if corner_dy:
+        cdy = np.concatenate(corner_dy)
+        size, pair, at = worst
+        print(f"all pairs: corners: {np.mean(cdy <= 1.0):.1%} of {len(cdy)} with |dy| <= 1 px "
+              f"(median {np.median(cdy):.2f} px; max {size:.2f} px, pair {pair} at "
+              f"x {at[0]:.0f}, y {at[1]:.0f} of the rectified left image)")
 
 
 def _with_rows(image, step=40):
