@@ -236,8 +236,10 @@ def _unique_specs(*classes):
     return list(seen.values())
 
 
-def _param_options(*classes):
-    """A decorator adding one option per parameter of ``classes`` (default None = not given)."""
+def parameter_options(*classes):
+    """A decorator adding one option per parameter of ``classes`` (default None = not given;
+    read the values with :func:`given_parameters`). Plugins' commands use it too, so that
+    every command spells the options the same way."""
 
     docs = {}
     for cls in classes:
@@ -269,7 +271,7 @@ def _param_options(*classes):
     return decorate
 
 
-def _given(kwargs: dict, cls) -> dict:
+def given_parameters(kwargs: dict, cls) -> dict:
     """The parameters of ``cls`` given on the command line (None = not given)."""
     names = {p.name for p in cls.PARAMS}
     return {k: (None if v is _NONE else v) for k, v in kwargs.items()
@@ -678,7 +680,7 @@ def demo(ctx, out):
 @click.option("--figures", is_flag=True,
               help="Also draw the paper's figures: figure5_left.png, figure5_right.png "
                    "(points over the gradient magnitude) and figure7.png (numbered matches).")
-@_param_options(DericheMoravecDetector, HopfieldMatcher)
+@parameter_options(DericheMoravecDetector, HopfieldMatcher)
 @click.pass_context
 def match(ctx, left, right, out, fmt, no_draw, plot_energy, figures, **params):
     """Match a rectified stereo pair LEFT RIGHT (image files of the same height).
@@ -689,8 +691,8 @@ def match(ctx, left, right, out, fmt, no_draw, plot_energy, figures, **params):
     (parameters, versions, timings, counts) into DIR.
     """
     t_start = time.perf_counter()
-    det_given = _given(params, DericheMoravecDetector)
-    match_given = _given(params, HopfieldMatcher)
+    det_given = given_parameters(params, DericheMoravecDetector)
+    match_given = given_parameters(params, HopfieldMatcher)
     labels = {"": f"{left}, {right}", "left": left, "right": right, **_param_labels(DericheMoravecDetector,
                                                              HopfieldMatcher)}
     # configuration first: a bad combination fails before any file is touched
@@ -766,7 +768,7 @@ def match(ctx, left, right, out, fmt, no_draw, plot_energy, figures, **params):
 @click.option("--out", "-o", required=True, metavar="DIR",
               help="Output folder (created if missing; an existing one is reused).")
 @click.option("--no-draw", is_flag=True, help="Do not write keypoints.png.")
-@_param_options(DericheMoravecDetector)
+@parameter_options(DericheMoravecDetector)
 @click.pass_context
 def detect(ctx, image, out, no_draw, **params):
     """Detect Moravec points on IMAGE.
@@ -775,7 +777,7 @@ def detect(ctx, image, out, no_draw, **params):
     run.json into DIR.
     """
     t_start = time.perf_counter()
-    given = _given(params, DericheMoravecDetector)
+    given = given_parameters(params, DericheMoravecDetector)
     labels = {"": image, "image": image, **_param_labels(DericheMoravecDetector)}
     detector = _guard(None, labels, lambda: DericheMoravecDetector(**given))
     _status("reading the image")

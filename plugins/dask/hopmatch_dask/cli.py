@@ -22,6 +22,7 @@ import sys
 import click
 
 import hopmatch
+from hopmatch.cli import given_parameters, parameter_options
 from hopmatch.errors import HopmatchError
 
 from .batch import check_params, run_batch
@@ -31,72 +32,6 @@ __all__ = ["EXIT_PAIRS_FAILED", "batch"]
 
 #: Exit status when the batch ran to its end but at least one pair failed.
 EXIT_PAIRS_FAILED = 3
-
-
-# --------------------------------------------------------------------------------------
-# One option per detector / matcher parameter (same names as ``hopmatch match``)
-# --------------------------------------------------------------------------------------
-
-
-def _accepts(spec, value) -> bool:
-    try:
-        spec.check(spec.name, value)
-        return True
-    except (TypeError, ValueError):
-        return False
-
-
-class _ParamType(click.ParamType):
-    """Parses text as the parameter's type, then runs the parameter's own validator."""
-
-    def __init__(self, spec):
-        self.spec = spec
-        default = spec.default
-        self.kind = type(default) if default is not None else next(
-            (k for k, probe in ((float, 0.5), (int, 1)) if _accepts(spec, probe)), str)
-        self.optional = _accepts(spec, None)
-        self.name = {int: "integer", float: "number"}.get(self.kind, "text")
-
-    def convert(self, value, param, ctx):  # noqa: D102 (click API)
-        if not isinstance(value, str):
-            return value
-        text = value.strip()
-        if self.optional and text.lower() == "none":
-            return None
-        if self.kind in (int, float):
-            try:
-                value = self.kind(text)
-            except ValueError:
-                self.fail(f"{value!r} is not {'an integer' if self.kind is int else 'a number'}")
-        try:
-            return self.spec.check(self.spec.name, value)
-        except (TypeError, ValueError) as exc:
-            message = str(exc)
-            prefix = f"`{self.spec.name}` "
-            self.fail(message[len(prefix):] if message.startswith(prefix) else message)
-
-
-_UNSET = object()
-
-
-def _param_options(func):
-    seen = {}
-    for cls in (hopmatch.DericheMoravecDetector, hopmatch.HopfieldMatcher):
-        for spec in cls.PARAMS:
-            seen.setdefault(spec.name, spec)
-    for spec in reversed(list(seen.values())):
-        flag = spec.name.replace("_", "-")
-        shown = "None" if spec.default is None else repr(spec.default)
-        if isinstance(spec.default, bool):
-            func = click.option(f"--{flag}/--no-{flag}", spec.name, default=None,
-                                help=f"[default {shown}]")(func)
-        else:
-            kind = _ParamType(spec)
-            extra = "; 'none' for None" if kind.optional else ""
-            func = click.option(f"--{flag}", spec.name, type=kind, default=_UNSET,
-                                show_default=False, metavar=kind.name.upper(),
-                                help=f"[default {shown}{extra}]")(func)
-    return func
 
 
 # --------------------------------------------------------------------------------------
@@ -141,7 +76,7 @@ def _stderr_is_terminal() -> bool:
                    "start a local cluster on this machine).")
 @click.option("--workers", type=click.IntRange(min=1), metavar="N",
               help="Worker processes of the local cluster [default: one per core].")
-@_param_options
+@parameter_options(hopmatch.DericheMoravecDetector, hopmatch.HopfieldMatcher)
 @click.pass_context
 def batch(ctx, pairs_csv, out, scheduler, workers, **params):
     """Match every pair listed in PAIRS.csv on a Dask cluster.
@@ -160,8 +95,8 @@ def batch(ctx, pairs_csv, out, scheduler, workers, **params):
     Detector and matcher options are those of 'hopmatch match'.
     """
     quiet = bool((ctx.find_root().obj or {}).get("quiet"))
-    given = {k: v for k, v in params.items() if v is not _UNSET and not (
-        v is None and _is_bool(k))}
+    given = {**given_parameters(params, hopmatch.DericheMoravecDetector),
+             **given_parameters(params, hopmatch.HopfieldMatcher)}
     if scheduler and workers:
         raise click.UsageError("--workers sets the size of the local cluster; it cannot be "
                                "used with --scheduler (size that cluster where it runs)")
@@ -211,9 +146,3 @@ def batch(ctx, pairs_csv, out, scheduler, workers, **params):
                 click.echo(f"failed: {o.name}: {o.error}", err=True)
         click.echo(f"output: {report.out} (<name>.csv per pair, summary.csv)")
     return 0 if report.ok else EXIT_PAIRS_FAILED
-
-
-def _is_bool(name: str) -> bool:
-    return any(isinstance(spec.default, bool) for cls in (hopmatch.DericheMoravecDetector,
-                                                         hopmatch.HopfieldMatcher)
-               for spec in cls.PARAMS if spec.name == name)
