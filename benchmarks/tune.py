@@ -22,26 +22,21 @@ import sys
 from pathlib import Path
 
 import cv2
-import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import single_thread  # noqa: E402
 
 import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
+from hopmatch.compare import METHODS  # noqa: E402
 from hopmatch.evaluate import score_matches  # noqa: E402
 
 
 def sift_baseline(scene) -> int:
-    sift = cv2.SIFT_create()
-    kl, dl = sift.detectAndCompute(scene.left, None)
-    kr, dr = sift.detectAndCompute(scene.right, None)
-    pairs = cv2.BFMatcher(cv2.NORM_L2).knnMatch(dl, dr, k=2)
-    good = [p[0] for p in pairs if len(p) == 2 and p[0].distance < 0.75 * p[1].distance]
-    left = np.float32([kl[m.queryIdx].pt for m in good]).reshape(-1, 2)
-    right = np.float32([kr[m.trainIdx].pt for m in good]).reshape(-1, 2)
-    band = (np.abs(left[:, 1] - right[:, 1]) <= 1) & (left[:, 0] - right[:, 0] >= 0)
-    return score_matches(left[band], right[band], scene.disparity).correct[1.0]
+    """Correct matches of SIFT + ratio 0.75 (``hopmatch.compare``'s ``sift-ratio``); the
+    rectified band filter only removes matches that cannot be correct."""
+    res = METHODS["sift-ratio"](scene)
+    return score_matches(res.left_pts, res.right_pts, scene.disparity).correct[1.0]
 
 
 def main(argv=None) -> int:
