@@ -121,10 +121,13 @@ def as_gray_image(image, name: str = "image", max_pixels: int | None = None) -> 
     return np.ascontiguousarray(image)
 
 
-def as_mask(mask, shape: tuple[int, int], name: str = "mask") -> np.ndarray | None:
+def as_mask(mask, shape: tuple[int, int], name: str = "mask", *,
+            of: str | None = None) -> np.ndarray | None:
     """Return ``mask`` as a C-contiguous bool array of ``shape``, or None when ``mask`` is None.
 
-    Accepts uint8 (non-zero = allowed, as cv2) or bool arrays of exactly ``shape``.
+    Accepts uint8 (non-zero = allowed, as cv2) or bool arrays of exactly ``shape``. ``of``
+    names the shape in messages; by default it is an image mask's "(height, width)", with a
+    hint on resizing it.
     """
     if mask is None:
         return None
@@ -136,12 +139,15 @@ def as_mask(mask, shape: tuple[int, int], name: str = "mask") -> np.ndarray | No
             f"(mask != 0).astype(np.uint8)"
         )
     if mask.shape != tuple(shape):
-        hint = ("; give one channel, e.g. mask[:, :, 0]" if mask.ndim == 3 and
-                mask.shape[:2] == tuple(shape) else "; resize it with cv2.resize(mask, "
-                f"({shape[1]}, {shape[0]}), interpolation=cv2.INTER_NEAREST)")
+        if of is not None:
+            expected, hint = f"{of} = {tuple(shape)}", ""
+        else:
+            expected = f"{tuple(shape)} (the image's height and width)"
+            hint = ("; give one channel, e.g. mask[:, :, 0]" if mask.ndim == 3 and
+                    mask.shape[:2] == tuple(shape) else "; resize it with cv2.resize(mask, "
+                    f"({shape[1]}, {shape[0]}), interpolation=cv2.INTER_NEAREST)")
         raise InvalidArgumentError(
-            f"`{name}` must have shape {tuple(shape)} (the image's height and width), "
-            f"got {mask.shape}{hint}"
+            f"`{name}` must have shape {expected}, got {mask.shape}{hint}"
         )
     return np.ascontiguousarray(mask != 0)
 

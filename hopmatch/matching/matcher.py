@@ -9,7 +9,13 @@ import cv2
 import numpy as np
 
 from .._params import Configurable, _state_params
-from .._validate import as_descriptors, as_image_size, as_points, check_coordinate_range
+from .._validate import (
+    as_descriptors,
+    as_image_size,
+    as_mask,
+    as_points,
+    check_coordinate_range,
+)
 from ..errors import (
     BudgetExceededError,
     DisparityRangeWarning,
@@ -135,20 +141,6 @@ def _check_neighbour_budget(points: np.ndarray, p: dict) -> None:
             "remove duplicate keypoints, shrink neighbour_width/neighbour_height, use fewer "
             "keypoints, or raise max_interactions"
         )
-
-
-def _check_mask(mask, shape):
-    if mask is None:
-        return None
-    if not isinstance(mask, np.ndarray):
-        raise InvalidTypeError(f"`mask` must be a numpy array or None, got {type(mask).__name__}")
-    if mask.dtype not in (np.uint8, np.bool_):
-        raise InvalidTypeError(f"`mask` must have dtype uint8 or bool, got {mask.dtype}")
-    if mask.shape != shape:
-        raise InvalidArgumentError(
-            f"`mask` must have shape (n_query, n_train) = {shape}, got {mask.shape}"
-        )
-    return np.ascontiguousarray(mask != 0)
 
 
 class HopfieldMatcher(Configurable):
@@ -277,7 +269,7 @@ class HopfieldMatcher(Configurable):
                 f"`trainDescriptors` ({td.dtype}, {td.shape[1]} columns) must have the same "
                 "type and length"
             )
-        mask = _check_mask(mask, (len(q_pts), len(t_pts)))
+        mask = as_mask(mask, (len(q_pts), len(t_pts)), "mask", of="(n_query, n_train)")
         p = dict(self._params)
         p["max_disparity"] = resolve_max_disparity(p["max_disparity"], q_size, q_pts, t_pts)
         if p["max_disparity"] < p["min_disparity"]:
