@@ -159,13 +159,19 @@ class DericheMoravecDetector(Configurable):
         g = self.feature_image(image)
         return self._compute_on(g, keypoints)
 
+    def describe_points(self, g: np.ndarray, points: np.ndarray):
+        """Descriptors (eqs. 8-9) of (x, y) float32 ``points`` on the feature image ``g``:
+        ``(keep, descriptors)``, ``keep`` the (N,) bool mask of the points whose descriptor
+        window lies inside the image, ``descriptors`` one float32 row per kept point."""
+        size = self._params["descriptor_size"]
+        keep = window_inside(points, g.shape, size)
+        return keep, gradient_windows(g, points[keep], size)
+
     def _compute_on(self, g, keypoints):
         keypoints = _as_keypoint_tuple(keypoints)
         pts = as_points(keypoints, "keypoints") if keypoints else np.zeros((0, 2), np.float32)
-        size = self._params["descriptor_size"]
-        keep = window_inside(pts, g.shape, size)
-        kept = tuple(kp for kp, k in zip(keypoints, keep.tolist()) if k)
-        return kept, gradient_windows(g, pts[keep], size)
+        keep, desc = self.describe_points(g, pts)
+        return tuple(kp for kp, k in zip(keypoints, keep.tolist()) if k), desc
 
     def detectAndCompute(self, image, mask=None, descriptors=None,  # noqa: N802
                          useProvidedKeypoints=False, keypoints=None):  # noqa: N803

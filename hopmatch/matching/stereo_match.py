@@ -14,7 +14,6 @@ import warnings
 from .._validate import as_mask
 from ..errors import ImageSizeWarning, InvalidArgumentError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
-from ..feature.descriptor import gradient_windows, window_inside
 from .matcher import HopfieldMatcher
 from .network import NetworkResult
 
@@ -91,10 +90,8 @@ def _describe(detector, image, mask):
     m = as_mask(mask[0], gray.shape, mask[1])
     g = detector._feature_image(gray, name)
     pts, resp = detector._points_on(g, m)
-    size = detector.getDescriptorSize()
-    keep = window_inside(pts, g.shape, size)
-    pts, resp = pts[keep], resp[keep]
-    return gray.shape, pts, resp, gradient_windows(g, pts, size)
+    keep, desc = detector.describe_points(g, pts)
+    return gray.shape, pts[keep], resp[keep], desc
 
 
 def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_matrix=None,

@@ -13,7 +13,6 @@ import numpy as np
 
 import hopmatch
 from hopmatch.errors import InvalidArgumentError
-from hopmatch.feature.descriptor import gradient_windows, window_inside
 
 from .ops import GDetect, GMatch, GMatchPoints
 
@@ -55,12 +54,10 @@ def _describe_and_match(detector, matcher, left, pts_left, right, pts_right):
             f"`left` and `right` must have the same height (a rectified pair), got "
             f"{gl.shape[0]} and {gr.shape[0]}"
         )
-    size = detector.getDescriptorSize()
     described = []
     for gray, pts in ((gl, pts_left), (gr, pts_right)):
-        g = detector.feature_image(gray)
-        pts = pts[window_inside(pts, g.shape, size)]
-        described.append((pts, gradient_windows(g, pts, size)))
+        keep, desc = detector.describe_points(detector.feature_image(gray), pts)
+        described.append((pts[keep], desc))
     (pl, dl), (pr, dr) = described
     matcher.setPairInfo(pl, pr, gl.shape[::-1], gr.shape[::-1])
     net = matcher.run(dl, dr)
