@@ -11,6 +11,8 @@ Only keep problems small: the dense network builds the full ``N x N`` matrix T o
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from hopmatch._kernels import network as _kn
@@ -118,17 +120,28 @@ def strict_maxima(v, radius, margin, threshold):
 
 
 def gradient_windows(g, pts, size):
-    """Eqs. 8-9 for integer points: ``V_i(x) = G(x) - mean_{W_i}(G)``, the window in raster
-    order, float64 (N, size * size)."""
+    """Eqs. 8-9: ``V_i(x) = G(x) - mean_{W_i}(G)``, the window in raster order, float64
+    (N, size * size). G is sampled bilinearly at non-integer centres (the textbook
+    four-pixel formula), and samples outside the image take the nearest border pixel."""
     g = np.asarray(g, dtype=np.float32)
+    h, w = g.shape
     r = size // 2
+
+    def pixel(yy, xx):
+        return float(g[min(max(yy, 0), h - 1), min(max(xx, 0), w - 1)])
+
     out = np.zeros((len(pts), size * size), dtype=np.float64)
     for n, (x, y) in enumerate(pts):
-        x, y = int(x), int(y)
+        x, y = float(x), float(y)
+        x0, y0 = math.floor(x), math.floor(y)
+        ax, ay = x - x0, y - y0
         values = []
         for dy in range(-r, r + 1):
             for dx in range(-r, r + 1):
-                values.append(float(g[y + dy, x + dx]))
+                xx, yy = x0 + dx, y0 + dy
+                top = (1 - ax) * pixel(yy, xx) + ax * pixel(yy, xx + 1)
+                bottom = (1 - ax) * pixel(yy + 1, xx) + ax * pixel(yy + 1, xx + 1)
+                values.append((1 - ay) * top + ay * bottom)
         mean = sum(values) / len(values)
         out[n] = [value - mean for value in values]
     return out
@@ -399,3 +412,15 @@ def singular_choice(group, dy, score, threshold):
             kept_dy.append(float(dy[a]))
             pending.remove(int(group[a]))
     return keep
+
+
+def shift_minimal(desc_l, desc_r, qi, ti):
+    """For each match, whether the mean |difference| of the overlapping columns of the two
+    square windows is no larger at shift 0 than at column shifts -1 and +1 (float64)."""
+    s = int(round(np.sqrt(desc_l.shape[1])))
+    a = desc_l[qi].reshape(-1, s, s).astype(np.float64)
+    b = desc_r[ti].reshape(-1, s, s).astype(np.float64)
+    c_minus = np.abs(a[:, :, 1:] - b[:, :, :-1]).mean(axis=(1, 2))
+    c_zero = np.abs(a[:, :, 1:-1] - b[:, :, 1:-1]).mean(axis=(1, 2))
+    c_plus = np.abs(a[:, :, :-1] - b[:, :, 1:]).mean(axis=(1, 2))
+    return (c_zero <= c_minus) & (c_zero <= c_plus)

@@ -142,6 +142,20 @@ BOUNDSCHECK_SCRIPT = textwrap.dedent("""
     v = hopmatch.moravec_response((rng.random((30, 30)) * 255).astype(np.uint8), 3)
     hopmatch.moravec_points(v, nms_size=999, margin=20)
     hopmatch.moravec_points(v, nms_size=1, margin=0, subpixel=True)
+    # windows leaving the image (border replicated), NaN centres, 1 x 1 images
+    far = np.float32([[-40.5, 3.2], [0, 0], [29.9, 29.9], [75, -8.25], [np.nan, 4]])
+    for size in (1, 3, 9):
+        hopmatch.gradient_windows(v, far, size)
+        hopmatch.gradient_windows(v[:1, :1], far, size)
+    # candidate output growing past its first allocation, up to the budget and over it
+    from hopmatch.matching.network import candidate_pairs
+    many = np.c_[rng.uniform(0, 500, 3000), rng.uniform(0, 3, 3000)].astype(np.float32)
+    n = len(candidate_pairs(many[:20], many, 0.0, 300.0, 1.0, 10**7)[0])
+    candidate_pairs(many[:20], many, 0.0, 300.0, 1.0, n)
+    try:
+        candidate_pairs(many[:20], many, 0.0, 300.0, 1.0, n - 1)
+    except hopmatch.errors.BudgetExceededError:
+        pass
     # network kernels: empty sides, single points, duplicates, zero neighbourhoods,
     # epipolar candidates, binary descriptors, energy traces, tiny iteration budgets
     pts = rng.uniform(0, 60, (50, 2)).astype(np.float32)

@@ -307,6 +307,27 @@ class TestGradientWindows:
         if size > 1:
             assert np.abs(got).max() > 1.0
 
+    @pytest.mark.parametrize("size", [3, 9])
+    def test_equals_bilinear_reference_for_subpixel_points(self, size):
+        rng = np.random.default_rng(10 + size)
+        g = rng.uniform(0, 255, (30, 40)).astype(np.float32)
+        r = size // 2
+        pts = np.column_stack([rng.uniform(r, 39 - r, 40),
+                               rng.uniform(r, 29 - r, 40)]).astype(np.float32)
+        got = gradient_windows(g, pts, size)
+        want = naive.gradient_windows(g, pts, size)
+        assert np.allclose(got, want, rtol=0, atol=1e-4)
+        # the sampling is exact bilinear, not cv2.remap's 1/32-pixel fixed-point weights
+        assert not np.allclose(got, naive.gradient_windows(g, np.round(pts * 32) / 32, size),
+                               rtol=0, atol=1e-3)
+
+    def test_windows_leaving_the_image_replicate_the_border(self):
+        rng = np.random.default_rng(3)
+        g = rng.uniform(0, 255, (12, 15)).astype(np.float32)
+        pts = np.array([[0.0, 0.0], [14.0, 11.0], [-3.5, 4.25], [20.2, -7.0]], np.float32)
+        got = gradient_windows(g, pts, 5)
+        assert np.allclose(got, naive.gradient_windows(g, pts, 5), rtol=0, atol=1e-4)
+
     def test_raster_order(self):
         g = np.arange(25, dtype=np.float32).reshape(5, 5)
         got = gradient_windows(g, np.array([[2, 2]], np.float32), 3)

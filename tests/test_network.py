@@ -16,6 +16,7 @@ from hopmatch.matching.network import (
     _starts,
     candidate_pairs,
     run_hopfield_network,
+    shift_minimal,
     similarity_distance,
 )
 from hopmatch.matching.params import MATCHER_PARAMS, PRESETS
@@ -128,6 +129,44 @@ class TestCandidates:
         assert ((d >= dmin) & (d <= dmax)).all()
         assert (np.abs(left[ni, 1] - right[nk, 1]) <= vmax).all()
 
+    @pytest.mark.parametrize("vmax", [0.0, 1.0, 2.5])
+    def test_unsorted_output_is_the_same_pairs_grouped_by_left_point(self, vmax):
+        left, right, _, _ = make_problem(5, 60, 70, integer=vmax == 0.0)
+        ni, nk = candidate_pairs(left, right, 0.0, 20.0, vmax, 10**6)
+        ui, uk = candidate_pairs(left, right, 0.0, 20.0, vmax, 10**6, sort=False)
+        assert np.array_equal(ui, ni) and len(ni) > 20
+        assert sorted(zip(ui.tolist(), uk.tolist())) == list(zip(ni.tolist(), nk.tolist()))
+        values = uk.astype(np.float64) * 10
+        _k.sort_groups(ui, uk, values)
+        assert np.array_equal(uk, nk) and np.array_equal(values, nk * 10.0)
+
+    def test_subpixel_rows_at_the_band_edges(self):
+        # right points in the rows just outside/inside floor(yl +- vmax)
+        left = np.array([[30.0, 10.5]], np.float32)
+        right = np.array([[25, 9.49], [25, 9.5], [25, 11.5], [25, 11.51], [25, 10.0],
+                          [30.0, 10.5], [9.0, 10.5], [10.0, 10.5]], np.float32)
+        ni, nk = candidate_pairs(left, right, 0.0, 20.0, 1.0, 100)
+        assert nk.tolist() == [1, 2, 4, 5, 7]
+        assert list(zip(ni.tolist(), nk.tolist())) == naive.candidate_pairs(
+            left, right, 0.0, 20.0, 1.0)
+
+    @pytest.mark.parametrize("slack", [-1, 0, 1, 5000])
+    def test_output_grows_up_to_the_budget_and_no_further(self, slack):
+        # many more pairs than the kernel's first allocation (8 per left point + 1024)
+        rng = np.random.default_rng(7)
+        left = np.column_stack([rng.uniform(400, 500, 20), rng.uniform(0, 3, 20)])
+        right = np.column_stack([rng.uniform(0, 500, 3000), rng.uniform(0, 3, 3000)])
+        left, right = left.astype(np.float32), right.astype(np.float32)
+        want = naive.candidate_pairs(left, right, 0.0, 300.0, 1.0)
+        assert len(want) > 8 * 20 + 1024
+        budget = len(want) + slack
+        if slack < 0:
+            with pytest.raises(BudgetExceededError, match=f"would have {len(want)} neurons"):
+                candidate_pairs(left, right, 0.0, 300.0, 1.0, budget)
+            return
+        ni, nk = candidate_pairs(left, right, 0.0, 300.0, 1.0, budget)
+        assert list(zip(ni.tolist(), nk.tolist())) == want
+
     def test_limits_are_inclusive(self):
         left = np.array([[20, 10]], np.float32)
         right = np.array([[20, 10], [5, 10], [4, 10], [10, 8], [10, 7.5], [21, 10]], np.float32)
@@ -170,16 +209,56 @@ class TestCandidates:
 
 
 class TestSimilarity:
-    def test_mean_abs_difference(self):
+    def test_normalised_difference(self):
         rng = np.random.default_rng(0)
         a = rng.normal(size=(20, 25)).astype(np.float32)
         b = rng.normal(size=(30, 25)).astype(np.float32)
         ni = rng.integers(0, 20, 200).astype(np.int32)
         nk = rng.integers(0, 30, 200).astype(np.int32)
-        got = _k.mean_abs_difference(a, b, ni, nk)
-        want = np.abs(a[ni].astype(np.float64) - b[nk]).mean(axis=1)
+        sa, sb = _k.row_mean_abs(a), _k.row_mean_abs(b)
+        assert np.allclose(sa, np.abs(a.astype(np.float64)).mean(axis=1), rtol=1e-12)
+        got = _k.normalised_difference(a, b, ni, nk, sa, sb, 1e-6, np.inf)
+        m = np.abs(a[ni].astype(np.float64) - b[nk]).mean(axis=1)
+        want = m / (0.5 * (sa[ni] + sb[nk]) + 1e-6)
         assert got.dtype == np.float64
         assert np.allclose(got, want, rtol=1e-12, atol=0)
+
+    @pytest.mark.parametrize("gate", [0.0, 0.3, 0.9, 1.1])
+    def test_gate_keeps_exactly_the_pairs_within_it(self, gate):
+        rng = np.random.default_rng(4)
+        a = rng.normal(size=(30, 81)).astype(np.float32)
+        b = np.concatenate([a + rng.normal(scale=s, size=a.shape).astype(np.float32)
+                            for s in (0.0, 0.2, 0.5, 2.0)])
+        b[::7] *= 3.0                                   # contrast changes: the lower bound
+        ni = np.repeat(np.arange(30, dtype=np.int32), 40)
+        nk = rng.integers(0, len(b), len(ni)).astype(np.int32)
+        full = similarity_distance(a, b, ni, nk)
+        gated = similarity_distance(a, b, ni, nk, gate)
+        within = full <= gate
+        assert 0 < within.sum() < len(ni) or gate == 0.0
+        assert np.array_equal(gated[within], full[within])   # exact, not approximate
+        assert (gated[~within] > gate).all()
+        assert np.isinf(gated[~within]).any()                    # some skipped by the bound
+
+    @pytest.mark.parametrize("size", [3, 5, 9])
+    def test_shift_minimal_equals_reference(self, size):
+        rng = np.random.default_rng(size)
+        g = rng.uniform(0, 50, (40, 60)).astype(np.float32)
+        ys, xs = rng.integers(size, 40 - size, 300), rng.integers(size + 1, 60 - size - 1, 300)
+        shift = rng.integers(-1, 2, 300)                  # right windows 0 or 1 px off
+        from hopmatch.feature import gradient_windows
+        a = gradient_windows(g, np.column_stack([xs, ys]).astype(np.float32), size)
+        b = gradient_windows(g, np.column_stack([xs + shift, ys]).astype(np.float32), size)
+        qi = np.arange(300)
+        got = shift_minimal(a, b, qi, qi)
+        want = naive.shift_minimal(a, b, qi, qi)
+        assert np.array_equal(got, want)
+        assert got[shift == 0].all() and not got[shift != 0].all()
+
+    def test_shift_minimal_passes_descriptors_that_are_not_windows(self):
+        rng = np.random.default_rng(0)
+        sift_like = rng.uniform(0, 1, (20, 128)).astype(np.float32)
+        assert shift_minimal(sift_like, sift_like[::-1], np.arange(20), np.arange(20)).all()
 
     def test_hamming_fraction(self):
         rng = np.random.default_rng(1)

@@ -31,34 +31,55 @@ def moravec_response(gq, radius, scale):
     if h < 2 * m + 1 or w < 2 * m + 1:
         return out
     k = 2 * radius + 1
-    ring = np.zeros((4, k, w), dtype=np.int64)  # window-row sums of the last k rows
-    acc = np.zeros((4, w), dtype=np.int64)  # their column sums: the window sums
-    drow = np.zeros(w, dtype=np.int64)
-    new = np.zeros(w, dtype=np.int64)
+    # squared differences of the last k rows, per direction (a ring), and their column sums
+    ring = np.zeros((k, 4, w), dtype=np.int64)
+    col = np.zeros((4, w), dtype=np.int64)
     for yy in range(1, h - 1):
-        slot = yy % k
-        for t in range(4):
-            ux = DIRECTIONS[t, 0]
-            uy = DIRECTIONS[t, 1]
-            for x in range(1, w - 1):
-                d = gq[yy, x] - gq[yy + uy, x + ux]
-                drow[x] = d * d
-            s = np.int64(0)
-            for x in range(m - radius, m + radius + 1):
-                s += drow[x]
-            new[m] = s
-            for x in range(m + 1, w - m):
-                s += drow[x + radius] - drow[x - 1 - radius]
-                new[x] = s
-            for x in range(m, w - m):
-                acc[t, x] += new[x] - ring[t, slot, x]
-                ring[t, slot, x] = new[x]
+        here = gq[yy]
+        below = gq[yy + 1]
+        old = ring[yy % k]  # the row leaving the window
+        for x in range(1, w - 1):  # the steps u_theta of DIRECTIONS, in that order
+            c = here[x]
+            d0 = c - here[x + 1]
+            d1 = c - below[x + 1]
+            d2 = c - below[x]
+            d3 = c - below[x - 1]
+            e0 = d0 * d0
+            e1 = d1 * d1
+            e2 = d2 * d2
+            e3 = d3 * d3
+            col[0, x] += e0 - old[0, x]
+            col[1, x] += e1 - old[1, x]
+            col[2, x] += e2 - old[2, x]
+            col[3, x] += e3 - old[3, x]
+            old[0, x] = e0
+            old[1, x] = e1
+            old[2, x] = e2
+            old[3, x] = e3
         y = yy - radius  # the output row whose window's last row is yy
         if y < m or y >= h - m:
             continue
+        # slide the window sums along the row: add the entering column, drop the leaving one
+        s0 = np.int64(0)
+        s1 = np.int64(0)
+        s2 = np.int64(0)
+        s3 = np.int64(0)
+        for x in range(m - radius, m + radius):
+            s0 += col[0, x]
+            s1 += col[1, x]
+            s2 += col[2, x]
+            s3 += col[3, x]
         for x in range(m, w - m):
-            v = min(min(acc[0, x], acc[1, x]), min(acc[2, x], acc[3, x]))
+            s0 += col[0, x + radius]
+            s1 += col[1, x + radius]
+            s2 += col[2, x + radius]
+            s3 += col[3, x + radius]
+            v = min(min(s0, s1), min(s2, s3))
             out[y, x] = np.float32(np.float64(v) * scale)
+            s0 -= col[0, x - radius]
+            s1 -= col[1, x - radius]
+            s2 -= col[2, x - radius]
+            s3 -= col[3, x - radius]
     return out
 
 

@@ -25,46 +25,130 @@ def _window_query(ys_sorted, y_lo, y_hi):
 
 
 @jit
-def count_candidates(left, right, order_r, ry_sorted, dmin, dmax, vmax):
-    """Number of pairs (i, k) with ``dmin <= xl - xr <= dmax`` and ``|yl - yr| <= vmax``."""
-    n = 0
-    for i in range(left.shape[0]):
-        xl = left[i, 0]
-        yl = left[i, 1]
-        a, b = _window_query(ry_sorted, yl - vmax, yl + vmax)
-        for t in range(a, b):
-            d = xl - right[order_r[t], 0]
-            if d >= dmin and d <= dmax:
-                n += 1
-    return n
+def right_rows(right):
+    """The right points bucketed by image row ``floor(y)``, each row sorted by x.
+
+    Returns ``(row_values, row_start, order)``: the distinct rows (increasing), the CSR
+    offsets of each row's points in ``order``, and the point indices row by row, x
+    increasing (ties: index increasing).
+    """
+    n = right.shape[0]
+    rows = np.empty(n, dtype=np.int64)
+    for k in range(n):
+        rows[k] = np.int64(np.floor(np.float64(right[k, 1])))
+    order = np.argsort(rows, kind="mergesort").astype(np.int64)
+    n_rows = 0
+    for t in range(n):
+        if t == 0 or rows[order[t]] != rows[order[t - 1]]:
+            n_rows += 1
+    row_values = np.empty(n_rows, dtype=np.int64)
+    row_start = np.empty(n_rows + 1, dtype=np.int64)
+    r = -1
+    for t in range(n):
+        if t == 0 or rows[order[t]] != rows[order[t - 1]]:
+            r += 1
+            row_values[r] = rows[order[t]]
+            row_start[r] = t
+    row_start[n_rows] = n
+    for r in range(n_rows):  # insertion sort by (x, index) within the row
+        for t in range(row_start[r] + 1, row_start[r + 1]):
+            key = order[t]
+            u = t - 1
+            while u >= row_start[r] and (right[order[u], 0] > right[key, 0]
+                                         or (right[order[u], 0] == right[key, 0]
+                                             and order[u] > key)):
+                order[u + 1] = order[u]
+                u -= 1
+            order[u + 1] = key
+    return row_values, row_start, order
 
 
 @jit
-def fill_candidates(left, right, order_r, ry_sorted, dmin, dmax, vmax, n):
-    """The pairs counted by :func:`count_candidates`, sorted by i then k.
+def _lower_bound(a, lo, hi, value):
+    """First index t in [lo, hi) with ``a[t] >= value`` (``hi`` if none); ``a`` sorted."""
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if a[mid] < value:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
 
-    Returns ``(ni, nk, start)`` with ``start`` the CSR offsets of each left point's neurons.
+
+@jit
+def _upper_bound(a, lo, hi, value):
+    """First index t in [lo, hi) with ``a[t] > value`` (``hi`` if none); ``a`` sorted."""
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if a[mid] <= value:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@jit
+def _grown(a, n, cap):
+    """A copy of ``a[:n]`` with room for ``cap`` entries."""
+    out = np.empty(cap, dtype=a.dtype)
+    out[:n] = a[:n]
+    return out
+
+
+@jit
+def band_candidates(left, row_values, row_start, order, rx, ry, dmin, dmax, vmax,
+                    max_neurons):
+    """The pairs (i, k) with ``dmin <= xl - xr <= dmax`` and ``yl - vmax <= yr <= yl + vmax``
+    (float32 arithmetic, as the points are stored), as ``(ni, nk, n)``: grouped by left point
+    i increasing, each group in row order (:func:`sort_groups` sorts them by k).
+
+    ``row_values, row_start, order`` come from :func:`right_rows`, ``rx, ry`` are the right
+    points' coordinates in that order. Only the rows ``floor(yl - vmax) .. floor(yl + vmax)``
+    are visited, and in each row only the x range of the disparity band (binary search, one
+    pixel of slack for rounding): the cost grows with the number of candidates, not with
+    ``Nl x Nr``. The output grows by doubling up to ``max_neurons`` entries; past that the
+    pairs are only counted: ``n > max_neurons`` then says so, and ``ni``/``nk`` are empty.
     """
-    ni = np.empty(n, dtype=np.int32)
-    nk = np.empty(n, dtype=np.int32)
-    nl = left.shape[0]
-    start = np.zeros(nl + 1, dtype=np.int64)
+    cap = min(max_neurons, 8 * left.shape[0] + 1024)
+    ni = np.empty(cap, dtype=np.int32)
+    nk = np.empty(cap, dtype=np.int32)
     p = 0
-    for i in range(nl):
+    for i in range(left.shape[0]):
         xl = left[i, 0]
         yl = left[i, 1]
-        a, b = _window_query(ry_sorted, yl - vmax, yl + vmax)
-        q = p
-        for t in range(a, b):
-            k = order_r[t]
-            d = xl - right[k, 0]
-            if d >= dmin and d <= dmax:
-                nk[p] = k
-                ni[p] = i
-                p += 1
-        insertion_sort(nk, q, p)
-        start[i + 1] = p
-    return ni, nk, start
+        y_lo = yl - vmax
+        y_hi = yl + vmax
+        r_lo = _lower_bound(row_values, 0, row_values.shape[0],
+                            np.int64(np.floor(np.float64(y_lo))))
+        r_hi = _upper_bound(row_values, r_lo, row_values.shape[0],
+                            np.int64(np.floor(np.float64(y_hi))))
+        x_lo = np.float64(xl) - np.float64(dmax) - 1.0
+        x_hi = np.float64(xl) - np.float64(dmin) + 1.0
+        for r in range(r_lo, r_hi):
+            t0 = _lower_bound(rx, row_start[r], row_start[r + 1], x_lo)
+            t1 = _upper_bound(rx, t0, row_start[r + 1], x_hi)
+            need = p + (t1 - t0)
+            if need > cap and cap < max_neurons:
+                cap = min(max(2 * cap, need), max_neurons)
+                ni = _grown(ni, p, cap)
+                nk = _grown(nk, p, cap)
+            if need <= cap:  # room for every pair of the segment: write without branches
+                for t in range(t0, t1):
+                    d = xl - rx[t]
+                    ni[p] = i
+                    nk[p] = order[t]
+                    p += (d >= dmin) & (d <= dmax) & (ry[t] >= y_lo) & (ry[t] <= y_hi)
+            else:  # near the budget: write while there is room, then only count
+                for t in range(t0, t1):
+                    d = xl - rx[t]
+                    if d >= dmin and d <= dmax and ry[t] >= y_lo and ry[t] <= y_hi:
+                        if p < cap:
+                            ni[p] = i
+                            nk[p] = order[t]
+                        p += 1
+    if p > max_neurons:
+        return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), p
+    return ni[:p].copy(), nk[:p].copy(), p
 
 
 @jit
@@ -100,7 +184,8 @@ def count_candidates_epipolar(left, right, order_x, rx_sorted, f, dmin, dmax, vm
 
 @jit
 def fill_candidates_epipolar(left, right, order_x, rx_sorted, f, dmin, dmax, vmax, n):
-    """The pairs counted by :func:`count_candidates_epipolar`, sorted by i then k."""
+    """The pairs counted by :func:`count_candidates_epipolar`, grouped by left point i
+    increasing (within a group in x order: :func:`sort_groups` sorts them)."""
     ni = np.empty(n, dtype=np.int32)
     nk = np.empty(n, dtype=np.int32)
     p = 0
@@ -108,7 +193,6 @@ def fill_candidates_epipolar(left, right, order_x, rx_sorted, f, dmin, dmax, vma
         xl = np.float64(left[i, 0])
         yl = np.float64(left[i, 1])
         a, b = _window_query(rx_sorted, np.float32(xl - dmax), np.float32(xl - dmin))
-        q = p
         for t in range(a, b):
             k = order_x[t]
             d = left[i, 0] - right[k, 0]
@@ -118,8 +202,31 @@ def fill_candidates_epipolar(left, right, order_x, rx_sorted, f, dmin, dmax, vma
                     nk[p] = k
                     ni[p] = i
                     p += 1
-        insertion_sort(nk, q, p)
     return ni, nk
+
+
+@jit
+def sort_groups(ni, nk, values):
+    """Sort, in place, each run of equal ``ni`` by ``nk`` (insertion sort: the runs are
+    short), permuting ``values`` alike: candidate pairs grouped by left point become
+    sorted by (i, k)."""
+    n = ni.shape[0]
+    lo = 0
+    while lo < n:
+        hi = lo + 1
+        while hi < n and ni[hi] == ni[lo]:
+            hi += 1
+        for t in range(lo + 1, hi):
+            key = nk[t]
+            val = values[t]
+            u = t - 1
+            while u >= lo and nk[u] > key:
+                nk[u + 1] = nk[u]
+                values[u + 1] = values[u]
+                u -= 1
+            nk[u + 1] = key
+            values[u + 1] = val
+        lo = hi
 
 
 @jit
@@ -181,31 +288,27 @@ def neighbour_lists(points, half_w, half_h):
         sx[q] = points[i, 0]
         sy[q] = points[i, 1]
         fill[cell[i]] += 1
-    for i in range(n):  # count (each point finds itself once)
+    cap = 16 * n + 1024
+    indices = np.empty(cap, dtype=np.int32)
+    p = 0
+    for i in range(n):  # one pass; the output grows by doubling
         cx0 = cell[i] % ncx
         cy0 = cell[i] // ncx
-        c = 0
+        xi = points[i, 0]
+        yi = points[i, 1]
         for cy in range(max(cy0 - 1, 0), min(cy0 + 2, ncy)):
             a = cell_start[cy * ncx + max(cx0 - 1, 0)]
             b = cell_start[cy * ncx + min(cx0 + 2, ncx)]
-            for t in range(a, b):
-                if abs(sx[t] - points[i, 0]) <= half_w and abs(sy[t] - points[i, 1]) <= half_h:
-                    c += 1
-        offsets[i + 1] = offsets[i] + c - 1
-    indices = np.empty(offsets[n], dtype=np.int32)
-    for i in range(n):  # fill
-        cx0 = cell[i] % ncx
-        cy0 = cell[i] // ncx
-        p = offsets[i]
-        for cy in range(max(cy0 - 1, 0), min(cy0 + 2, ncy)):
-            a = cell_start[cy * ncx + max(cx0 - 1, 0)]
-            b = cell_start[cy * ncx + min(cx0 + 2, ncx)]
-            for t in range(a, b):
-                if (members[t] != i and abs(sx[t] - points[i, 0]) <= half_w
-                        and abs(sy[t] - points[i, 1]) <= half_h):
-                    indices[p] = members[t]
-                    p += 1
+            if p + (b - a) > cap:
+                cap = max(2 * cap, p + (b - a))
+                indices = _grown(indices, p, cap)
+            for t in range(a, b):  # room for all: write, keep the ones that qualify
+                indices[p] = members[t]
+                p += ((members[t] != i) & (abs(sx[t] - xi) <= half_w)
+                      & (abs(sy[t] - yi) <= half_h))
         insertion_sort(indices, offsets[i], p)
+        offsets[i + 1] = p
+    indices = indices[:p].copy()
     return offsets, indices
 
 
@@ -215,19 +318,75 @@ def neighbour_lists(points, half_w, half_h):
 
 
 @jit
-def mean_abs_difference(desc_l, desc_r, ni, nk):
-    """Eq. 7: ``M_ik = (1/n) sum |V_i(x) - V_k(x')|`` for every candidate pair (float rows)."""
+def row_mean_abs(desc):
+    """``mean |row|`` of every float descriptor row, in float64 (the contrast of a window)."""
+    n, dim = desc.shape
+    out = np.zeros(n, dtype=np.float64)
+    if dim == 0:
+        return out
+    for p in range(n):
+        s = 0.0
+        for t in range(dim):
+            s += abs(np.float64(desc[p, t]))
+        out[p] = s / dim
+    return out
+
+
+@jit
+def normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, eps, gate):
+    """Eq. 7 normalised: ``M_ik / (0.5 (s_i + s_k) + eps)`` for every candidate pair, with
+    ``M_ik = (1/n) sum |V_i(x) - V_k(x')|`` and ``s`` the rows' ``mean |V|``
+    (:func:`row_mean_abs`).
+
+    Pairs whose value certainly exceeds ``gate`` (pass ``inf`` for none) get ``inf``
+    without the sum: ``|s_i - s_k|`` is a lower bound of ``M_ik`` (triangle inequality),
+    with a margin for rounding. Every other value is computed in full, so the gate keeps
+    exactly the pairs it would keep otherwise.
+    """
     n = ni.shape[0]
     dim = desc_l.shape[1]
     out = np.empty(n, dtype=np.float64)
     for p in range(n):
-        a = desc_l[ni[p]]
-        b = desc_r[nk[p]]
+        i = ni[p]
+        k = nk[p]
+        norm = 0.5 * (scale_l[i] + scale_r[k]) + eps
+        if abs(scale_l[i] - scale_r[k]) > gate * norm * (1.0 + 1e-6):
+            out[p] = np.inf
+            continue
+        a = desc_l[i]
+        b = desc_r[k]
         s = 0.0
         for t in range(dim):
             s += abs(np.float64(a[t]) - np.float64(b[t]))
-        out[p] = s / max(dim, 1)
+        out[p] = (s / max(dim, 1)) / norm
     return out
+
+
+@jit
+def shift_minimal_windows(desc_l, desc_r, qi, ti, size):
+    """For each pair (qi, ti) of ``size x size`` windows stored as rows: whether the mean
+    absolute difference of the overlapping columns is no larger at the matched position
+    than with the right window shifted by one column either way."""
+    n = qi.shape[0]
+    keep = np.empty(n, dtype=np.bool_)
+    for p in range(n):
+        a = desc_l[qi[p]]
+        b = desc_r[ti[p]]
+        c_minus = 0.0
+        c_zero = 0.0
+        c_plus = 0.0
+        for y in range(size):
+            r = y * size
+            for x in range(size - 1):
+                c_minus += abs(np.float64(a[r + x + 1]) - np.float64(b[r + x]))
+                c_plus += abs(np.float64(a[r + x]) - np.float64(b[r + x + 1]))
+            for x in range(1, size - 1):
+                c_zero += abs(np.float64(a[r + x]) - np.float64(b[r + x]))
+        c_minus /= size * (size - 1)
+        c_plus /= size * (size - 1)
+        c_zero /= size * (size - 2)
+        keep[p] = c_zero <= c_minus and c_zero <= c_plus
+    return keep
 
 
 @jit

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
+
+from .._kernels import descriptor as _k
 
 
 def window_inside(points: np.ndarray, shape: tuple[int, int], size: int) -> np.ndarray:
@@ -22,9 +23,10 @@ def gradient_windows(g: np.ndarray, points: np.ndarray, size: int) -> np.ndarray
     g : (H, W) float32 ndarray
         The image the windows are cut from (gradient magnitude, or grey levels).
     points : (N, 2) float32 ndarray
-        Window centres (x, y); every window must lie inside the image (see
-        :func:`window_inside`). Non-integer centres are sampled bilinearly
-        (``cv2.remap``); integer centres read the pixels exactly.
+        Window centres (x, y); the windows are meant to lie inside the image (see
+        :func:`window_inside`), samples outside it take the nearest border pixel.
+        Non-integer centres are sampled bilinearly, exactly (in float64); integer
+        centres read the pixels themselves.
     size : int
         Odd side of the window.
 
@@ -40,18 +42,8 @@ def gradient_windows(g: np.ndarray, points: np.ndarray, size: int) -> np.ndarray
     >>> gradient_windows(g, np.array([[2, 2]], np.float32), 3)
     array([[-6., -5., -4., -1.,  0.,  1.,  4.,  5.,  6.]], dtype=float32)
     """
-    n = len(points)
-    if n == 0:
-        return np.zeros((0, size * size), np.float32)
-    r = size // 2
-    dy, dx = np.mgrid[-r : r + 1, -r : r + 1].astype(np.float32)
-    # cv2.remap needs maps with fewer than SHRT_MAX (32767) rows: process in chunks
-    win = np.empty((n, size * size), np.float32)
-    for a in range(0, n, 16384):
-        pts = points[a:a + 16384]
-        map_x = np.ascontiguousarray(pts[:, :1] + dx.reshape(1, -1))
-        map_y = np.ascontiguousarray(pts[:, 1:] + dy.reshape(1, -1))
-        win[a:a + len(pts)] = cv2.remap(g, map_x, map_y, cv2.INTER_LINEAR,
-                                        borderMode=cv2.BORDER_REPLICATE)
-    win -= win.mean(axis=1, keepdims=True)
-    return win
+    points = np.ascontiguousarray(points, dtype=np.float32).reshape(-1, 2)
+    if len(points) and (g.ndim != 2 or g.size == 0):
+        raise ValueError(f"`g` must be a non-empty 2-D image to cut windows from, got shape "
+                         f"{g.shape}")
+    return _k.bilinear_windows(np.ascontiguousarray(g, dtype=np.float32), points, size // 2)

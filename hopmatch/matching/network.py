@@ -62,7 +62,7 @@ class NetworkResult:
 
 
 def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
-                        nk: np.ndarray) -> np.ndarray:
+                        nk: np.ndarray, gate: float | None = None) -> np.ndarray:
     """Normalised similarity distance of each candidate pair (eqs. 7-9).
 
     Float descriptors: ``M_ik`` of eq. 7 (mean absolute difference of the mean-subtracted
@@ -70,42 +70,57 @@ def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
     not depend on contrast: 0 for identical windows, about 1 for unrelated ones, at most 2.
     This also serves any float descriptor (SIFT...). Binary (uint8) descriptors: the
     fraction of differing bits, in [0, 1].
+
+    With a ``gate``, float pairs whose distance certainly exceeds it (their contrasts
+    differ too much) are given ``inf`` without computing it; the others are exact.
     """
     if desc_l.dtype == np.uint8:
         return _k.hamming_fraction(desc_l, desc_r, ni, nk)
-    m = _k.mean_abs_difference(desc_l, desc_r, ni, nk)
-    scale_l = np.abs(desc_l).mean(axis=1, dtype=np.float64) if desc_l.shape[1] else np.zeros(len(desc_l))
-    scale_r = np.abs(desc_r).mean(axis=1, dtype=np.float64) if desc_r.shape[1] else np.zeros(len(desc_r))
-    return m / (0.5 * (scale_l[ni] + scale_r[nk]) + _EPS)
+    return _k.normalised_difference(desc_l, desc_r, ni, nk, _k.row_mean_abs(desc_l),
+                                    _k.row_mean_abs(desc_r), _EPS,
+                                    np.inf if gate is None else float(gate))
+
+
+def _right_band_index(right):
+    """What the rectified candidate search needs of the right points: ``right_rows`` and
+    the coordinates in its order."""
+    rows, row_start, order = _k.right_rows(right)
+    return (rows, row_start, order, np.ascontiguousarray(right[order, 0]),
+            np.ascontiguousarray(right[order, 1]))
 
 
 def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max_neurons,
-                    fundamental=None):
+                    fundamental=None, *, sort=True):
     """Neurons: pairs with ``min_disparity <= xl - xr <= max_disparity`` and
-    ``|yl - yr| <= max_vertical`` (SPEC section 3's search window), sorted by (i, k).
+    ``|yl - yr| <= max_vertical`` (SPEC section 3's search window), as ``(ni, nk)``.
 
     With a fundamental matrix, the band is around each left point's epipolar line instead:
     the right point's distance to ``F (xl, yl, 1)`` is at most ``max_vertical``.
     Raises :class:`BudgetExceededError` before allocating more than ``max_neurons``.
+
+    The pairs are sorted by (i, k); with ``sort=False`` they are only grouped by i (sort
+    what is left after gating with ``sort_groups``: cheaper).
     """
     band = (np.float32(min_disparity), np.float32(max_disparity), np.float32(max_vertical))
     if fundamental is None:
-        order = np.argsort(right[:, 1], kind="stable")
-        args = (left, right, order, np.ascontiguousarray(right[order, 1]))
-        count, fill = _k.count_candidates, _k.fill_candidates
+        ni, nk, n = _k.band_candidates(left, *_right_band_index(right), *band,
+                                       np.int64(min(max_neurons, 2**62)))
     else:
         order = np.argsort(right[:, 0], kind="stable")
         args = (left, right, order, np.ascontiguousarray(right[order, 0]),
                 np.ascontiguousarray(fundamental, dtype=np.float64))
-        count, fill = _k.count_candidates_epipolar, _k.fill_candidates_epipolar
-    n = count(*args, *band)
+        n = _k.count_candidates_epipolar(*args, *band)
+        if n <= max_neurons:
+            ni, nk = _k.fill_candidates_epipolar(*args, *band, n)
     if n > max_neurons:
         raise BudgetExceededError(
             f"the network would have {n} neurons (candidate pairs), more than max_neurons="
             f"{max_neurons}; narrow the disparity range (min_disparity/max_disparity) or "
             "max_vertical, use fewer keypoints, or raise max_neurons"
         )
-    return fill(*args, *band, n)[:2]
+    if sort:
+        _k.sort_groups(ni, nk, np.empty(len(ni)))
+    return ni, nk
 
 
 def vertical_offsets(left, right, ni, nk, fundamental=None) -> np.ndarray:
@@ -151,12 +166,8 @@ def shift_minimal(desc_l: np.ndarray, desc_r: np.ndarray, qi: np.ndarray,
                             and is_window_descriptor(desc_r[ti])):
         return keep
     s = int(round(np.sqrt(desc_l.shape[1])))
-    a = desc_l[qi].reshape(-1, s, s).astype(np.float64)
-    b = desc_r[ti].reshape(-1, s, s).astype(np.float64)
-    c_minus = np.abs(a[:, :, 1:] - b[:, :, :-1]).mean(axis=(1, 2))
-    c_zero = np.abs(a[:, :, 1:-1] - b[:, :, 1:-1]).mean(axis=(1, 2))
-    c_plus = np.abs(a[:, :, :-1] - b[:, :, 1:]).mean(axis=(1, 2))
-    return (c_zero <= c_minus) & (c_zero <= c_plus)
+    return _k.shift_minimal_windows(desc_l, desc_r, np.ascontiguousarray(qi, dtype=np.int64),
+                                    np.ascontiguousarray(ti, dtype=np.int64), s)
 
 
 def neighbours_with_neurons(left, start, width, height):
@@ -190,21 +201,23 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
     """
     nl, nr = len(left), len(right)
     ni, nk = candidate_pairs(left, right, p["min_disparity"], p["max_disparity"],
-                             p["max_vertical"], p["max_neurons"], fundamental)
+                             p["max_vertical"], p["max_neurons"], fundamental, sort=False)
     if mask is not None and len(ni):
         keep = mask[ni, nk]
         ni, nk = ni[keep], nk[keep]
-    sim = similarity_distance(desc_l, desc_r, ni, nk) if len(ni) else np.zeros(0)
-    keep = np.ones(len(ni), dtype=bool)
-    if p["similarity_gate"] is not None:
-        keep &= sim <= p["similarity_gate"]
+    gate = p["similarity_gate"]
+    sim = similarity_distance(desc_l, desc_r, ni, nk, gate) if len(ni) else np.zeros(0)
+    if gate is not None:
+        keep = sim <= gate
+        ni, nk, sim = ni[keep], nk[keep], sim[keep]
+    _k.sort_groups(ni, nk, sim)
     if p["max_candidates"] and len(ni):
         order = np.lexsort((sim, ni))
         rank = np.empty(len(ni), dtype=np.int64)
         first = np.searchsorted(ni[order], ni[order])
         rank[order] = np.arange(len(ni)) - first
-        keep &= rank < p["max_candidates"]
-    ni, nk, sim = ni[keep], nk[keep], sim[keep]
+        keep = rank < p["max_candidates"]
+        ni, nk, sim = ni[keep], nk[keep], sim[keep]
     start = _starts(ni, nl)
 
     nb_off, nb_idx = neighbours_with_neurons(left, start, p["neighbour_width"],
