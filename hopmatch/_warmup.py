@@ -20,6 +20,8 @@ def warmup() -> float:
     _, desc = det._compute_on(g, tuple(__import__("cv2").KeyPoint(float(x), float(y), 5.0)
                                        for x, y in pts))
     hopfield_match(pts, pts, desc, desc, max_disparity=4.0, record_energy=True)
+    rectified = np.array([[0, 0, 0], [0, 0, -1], [0, 1, 0]], dtype=np.float64)
+    hopfield_match(pts, pts, desc, desc, max_disparity=4.0, fundamental_matrix=rectified)
     binary = (rng.random((len(pts), 32)) * 255).astype(np.uint8)
     hopfield_match(pts, pts, binary, binary, max_disparity=4.0)
     return time.perf_counter() - t0
