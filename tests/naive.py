@@ -399,3 +399,18 @@ def singular_choice(group, dy, score, threshold):
             kept_dy.append(float(dy[a]))
             pending.remove(int(group[a]))
     return keep
+
+
+def vertically_consistent(dy, threshold):
+    """``vertical_check="all"`` with loops: the median of ``dy`` (the middle value of the
+    sorted list, or the mean of the two middle values), then keep a pair iff its ``dy`` is
+    strictly within ``threshold`` of that median."""
+    values = sorted(float(v) for v in dy)
+    n = len(values)
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    if n % 2:
+        median = values[n // 2]
+    else:
+        median = 0.5 * (values[n // 2 - 1] + values[n // 2])
+    return np.array([abs(float(v) - median) < threshold for v in dy], dtype=bool)
