@@ -424,3 +424,18 @@ def shift_minimal(desc_l, desc_r, qi, ti):
     c_zero = np.abs(a[:, :, 1:-1] - b[:, :, 1:-1]).mean(axis=(1, 2))
     c_plus = np.abs(a[:, :, :-1] - b[:, :, 1:]).mean(axis=(1, 2))
     return (c_zero <= c_minus) & (c_zero <= c_plus)
+
+
+def vertically_consistent(dy, threshold):
+    """``vertical_check="all"`` with loops: the median of ``dy`` (the middle value of the
+    sorted list, or the mean of the two middle values), then keep a pair iff its ``dy`` is
+    strictly within ``threshold`` of that median."""
+    values = sorted(float(v) for v in dy)
+    n = len(values)
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    if n % 2:
+        median = values[n // 2]
+    else:
+        median = 0.5 * (values[n // 2 - 1] + values[n // 2])
+    return np.array([abs(float(v) - median) < threshold for v in dy], dtype=bool)

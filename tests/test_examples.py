@@ -155,15 +155,17 @@ def test_stereo_calibration_figures(stereo_calibration):
     assert cv2.imread(str(out / "stereo_calibration_rectified.png")) is not None
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "goal missed: with a 4 px search band only 82 % of hopmatch's 50 matches on the "
-    "rectified chessboard pair 01 have |dy| <= 1 px (goal 95 %), although the rectified "
-    "chessboard corners have a median |dy| of 0.14 px; with the default 1 px band the "
-    "figure is 100 % by construction. See docs/pipelines.md."))
 def test_stereo_calibration_rectified_matches_meet_the_dy_goal(stereo_calibration):
+    """With a 4 px band, >= 95 % of the matches of pair 01 have |dy| <= 1 px; this needs the
+    matcher's vertical check of every kept pair (the default, ``vertical_check="all"``):
+    section 4 as written (``"multiple"``, printed beside it) lets off-row look-alikes of
+    the chessboard through (82 % on pair 01; docs/pipelines.md)."""
     res, _ = stereo_calibration
     (frac,) = figure(res.stdout, r"^rectified \|dy\| <= 1 px: ([\d.]+)% of")
     assert frac >= 95.0
+    (paper,) = figure(res.stdout, r"^  without the vertical check of every pair "
+                                  r"\(vertical_check='multiple', .*\): ([\d.]+)% of")
+    assert paper < frac
     assert res.returncode == 0, res.stderr
 
 
@@ -188,6 +190,8 @@ def test_stereo_calibration_all_pairs(shared_data, tmp_path):
                                       r"(\d+) matches with \|dy\| <= 1 px "
                                       r"\(per pair ([\d.]+)%\.\.([\d.]+)%")
         assert n > 13 and lo <= p <= hi
+        if band == "4":  # the goal, over all pairs together
+            assert p >= 95.0
     p, n = figure(stdout, r"^all pairs: corners: ([\d.]+)% of (\d+) with \|dy\| <= 1 px")
     assert n == 13 * 54 and p >= 95.0
 

@@ -168,6 +168,8 @@ def test_pair_info_errors(features):
         ({"max_iterations": 0}, InvalidArgumentError, "max_iterations"),
         ({"max_disparity": "big"}, InvalidTypeError, "max_disparity"),
         ({"neighbour_widht": 3}, InvalidArgumentError, "neighbour_widht"),
+        ({"vertical_check": "some"}, InvalidArgumentError, "'multiple', 'all'"),
+        ({"vertical_check": True}, InvalidTypeError, "vertical_check"),
     ],
 )
 def test_invalid_parameters(kwargs, exc, words):
@@ -191,6 +193,8 @@ def test_presets_and_accessors():
     m.setPreset("default")
     assert m.getTheta() == HopfieldMatcher().getTheta()
     assert HopfieldMatcher(preset="paper", theta=3).getTheta() == 3.0
+    assert HopfieldMatcher(preset="paper").getVerticalCheck() == "multiple"
+    assert HopfieldMatcher().getVerticalCheck() == "all"
     m.setMaxDisparity(64)
     assert m.getMaxDisparity() == 64.0
 

@@ -11,13 +11,18 @@ from hypothesis import strategies as st
 import naive
 from hopmatch._kernels import network as _k
 from hopmatch.errors import BudgetExceededError
-from hopmatch.matching.disambiguate import disambiguate, singular_choice
+from hopmatch.matching.disambiguate import (
+    disambiguate,
+    singular_choice,
+    vertically_consistent,
+)
 from hopmatch.matching.network import (
     _starts,
     candidate_pairs,
     run_hopfield_network,
     shift_minimal,
     similarity_distance,
+    vertical_offsets,
 )
 from hopmatch.matching.params import MATCHER_PARAMS, PRESETS
 
@@ -628,3 +633,83 @@ class TestDisambiguation:
         assert len(res.query_idx) > 0
         assert len(np.unique(res.query_idx)) == len(res.query_idx)
         assert len(np.unique(res.train_idx)) == len(res.train_idx)
+
+
+class TestVerticalCheck:
+    """``vertical_check="all"``: section 4's vertical test for every kept pair."""
+
+    def test_equals_reference(self):
+        rng = np.random.default_rng(5)
+        rejected = 0
+        for _ in range(300):
+            n = int(rng.integers(0, 30))
+            if rng.random() < 0.5:
+                dy = rng.integers(-3, 4, n).astype(np.float64)   # ties on the median
+            else:
+                dy = rng.normal(0, 1.5, n)
+            for threshold in (0.5, 1.0, 2.5):
+                got = vertically_consistent(dy, threshold)
+                want = naive.vertically_consistent(dy, threshold)
+                assert np.array_equal(got, want)
+                rejected += int((~got).sum())
+        assert rejected > 100
+
+    def test_examples(self):
+        # the median (0.1), not the mean (0.66, pulled by the outlier), is the reference
+        dy = np.array([0.1, -0.2, 0.0, 3.0, 0.4])
+        assert vertically_consistent(dy, 1.0).tolist() == [True, True, True, False, True]
+        assert naive.vertically_consistent(dy, 1.0).tolist() == [True, True, True, False, True]
+        # strict, as section 4's test: exactly threshold away is out
+        assert vertically_consistent(np.array([0.0, 0.0, 1.0]), 1.0).tolist() == [
+            True, True, False]
+        # a constant offset (a rectification error) is not removed
+        assert vertically_consistent(np.full(4, 2.5), 1.0).all()
+        assert vertically_consistent(np.array([0.0, np.inf, 0.1]), 1.0).tolist() == [
+            True, False, True]
+        assert vertically_consistent(np.zeros(0), 1.0).shape == (0,)
+
+    def test_presets(self):
+        assert DEFAULTS["vertical_check"] == "all"
+        assert PRESETS["paper"]["vertical_check"] == "multiple"   # section 4 as written
+        assert PRESETS["default"]["vertical_check"] == "all"
+
+    @pytest.mark.parametrize("cross_check", [True, False])
+    def test_network_applies_it_to_every_kept_pair(self, cross_check):
+        """With a band wider than the threshold, ``"all"`` keeps exactly the pairs of
+        ``"multiple"`` that lie strictly within ``vertical_threshold`` of their median
+        vertical disparity; some pairs, singular ones among them, are removed."""
+        removed = removed_singular = 0
+        for seed in range(6):
+            problem = make_problem(seed, 40)
+            p = params(**{**CONFIGS["gated"], "max_vertical": 4.0}, cross_check=cross_check,
+                       seed=seed)
+            base = run_hopfield_network(*problem, {**p, "vertical_check": "multiple"})
+            new = run_hopfield_network(*problem, {**p, "vertical_check": "all"})
+            left, right = problem[0], problem[1]
+            dy = vertical_offsets(left, right, base.query_idx, base.train_idx)
+            assert len(dy) > 10
+            keep = naive.vertically_consistent(dy, p["vertical_threshold"])
+            assert np.array_equal(new.query_idx, base.query_idx[keep])
+            assert np.array_equal(new.train_idx, base.train_idx[keep])
+            new_dy = vertical_offsets(left, right, new.query_idx, new.train_idx)
+            assert (np.abs(new_dy - np.median(dy)) < p["vertical_threshold"]).all()
+            # the network itself is unchanged
+            assert np.array_equal(new.state, base.state)
+            removed += int((~keep).sum())
+            # singular: the only active neuron of its left point
+            n_active = np.bincount(base.neuron_left[base.state],
+                                   minlength=len(left))[base.query_idx]
+            removed_singular += int(((~keep) & (n_active == 1)).sum())
+        assert removed > 0 and removed_singular > 0
+
+    def test_the_paper_preset_keeps_off_row_singular_pairs(self):
+        """Section 4 as written never tests a singular pair: with the paper's preset some
+        kept pairs lie a threshold or more from the median vertical disparity."""
+        far = 0
+        for seed in range(4):
+            left, right, dl, dr = make_problem(seed, 30)
+            res = run_hopfield_network(left, right, dl, dr,
+                                       params(**CONFIGS["paper"], seed=seed))
+            dy = vertical_offsets(left, right, res.query_idx, res.train_idx)
+            far += int((~vertically_consistent(dy, 1.0)).sum())
+        assert far > 0

@@ -144,6 +144,7 @@ matcher_params = st.fixed_dictionaries({}, optional={
     "max_iterations": st.integers(0, 5000),
     "cross_check": st.booleans(),
     "shift_check": st.booleans(),
+    "vertical_check": st.sampled_from(["multiple", "all", "nope"]),
     "preset": st.sampled_from(["default", "paper", "nope"]),
     "max_neurons": st.integers(1, 10**6),
 })

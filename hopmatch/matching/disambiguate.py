@@ -95,3 +95,41 @@ def disambiguate(ni: np.ndarray, nk: np.ndarray, active: np.ndarray, dy: np.ndar
     from_left = singular_choice(ni[act], dy[act], score[act], threshold)
     from_right = singular_choice(nk[act], dy[act], score[act], threshold)
     return act[from_left & from_right]
+
+
+def vertically_consistent(dy: np.ndarray, threshold: float) -> np.ndarray:
+    """Section 4's vertical test applied to every kept pair (``vertical_check="all"``).
+
+    Section 4 compares only the *multiple* pairs with the mean vertical disparity ``Ybar``
+    and keeps every singular pair whatever its vertical disparity. On a rectified pair (or
+    along epipolar lines) all correct matches share one vertical disparity, so a singular
+    pair far from it breaks the same epipolar constraint: with a search band wider than
+    the tolerance these are mostly look-alikes of repetitive texture (a chessboard corner
+    matched to another corner a few rows off; docs/parameters.md). This keeps a pair iff
+    ``|dy - Ybar| < threshold``, with ``Ybar`` the *median* vertical disparity of the pairs
+    (robust to the outliers it is meant to find; the mean is pulled towards them).
+
+    Parameters
+    ----------
+    dy : (M,) float ndarray
+        Vertical disparity of each kept pair (``y_left - y_right``, or the signed distance
+        to the epipolar line).
+    threshold : float
+        The vertical-disparity tolerance (``vertical_threshold``).
+
+    Returns
+    -------
+    (M,) bool ndarray
+        True for the pairs within ``threshold`` of the median (a pair with a non-finite
+        ``dy`` is never within it).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> vertically_consistent(np.array([0.1, -0.2, 0.0, 3.0, 0.4]), 1.0).tolist()
+    [True, True, True, False, True]
+    """
+    dy = np.asarray(dy, dtype=np.float64)
+    if len(dy) == 0:
+        return np.zeros(0, dtype=bool)
+    return np.abs(dy - np.median(dy)) < threshold

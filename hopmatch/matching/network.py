@@ -8,7 +8,7 @@ import numpy as np
 
 from .._kernels import network as _k
 from ..errors import BudgetExceededError
-from .disambiguate import disambiguate
+from .disambiguate import disambiguate, vertically_consistent
 
 _EPS = 1e-6
 
@@ -255,6 +255,8 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
         chosen = disambiguate(ni, nk, state, dy, u, p["vertical_threshold"])
     else:
         chosen = np.flatnonzero(state)
+    if p["vertical_check"] == "all":
+        chosen = chosen[vertically_consistent(dy[chosen], p["vertical_threshold"])]
     if p["shift_check"]:
         chosen = chosen[shift_minimal(desc_l, desc_r, ni[chosen], nk[chosen])]
     with np.errstate(over="ignore"):

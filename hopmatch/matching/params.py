@@ -33,6 +33,12 @@ MATCHER_PARAMS: tuple[Param, ...] = (
     # disambiguation, section 4
     Param("vertical_threshold", 1.0, real(0.0, lo_open=True)),
     Param("cross_check", True, boolean()),
+    # beyond the paper: section 4's vertical test for every kept pair, not only multiples
+    Param("vertical_check", "all", choice("multiple", "all"), doc=(
+        "SPEC section 4's vertical test: 'multiple' applies it only to points with several "
+        "active neurons (the paper); 'all' then also drops every kept pair whose vertical "
+        "disparity is vertical_threshold or more from the median of the kept pairs "
+        "(disambiguate.vertically_consistent; docs/parameters.md)")),
     # beyond the paper: reject matches whose windows align better one pixel off
     Param("shift_check", True, boolean()),
     # resource budget
@@ -61,6 +67,7 @@ PRESETS: dict[str, dict] = {
         "uniqueness_weight": 1.0,
         "stable_iterations": 200,
         "vertical_threshold": 1.0,
+        "vertical_check": "multiple",
         "shift_check": False,
     },
 }
