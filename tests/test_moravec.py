@@ -337,3 +337,14 @@ class TestGradientWindows:
     def test_no_points(self):
         out = gradient_windows(np.zeros((9, 9), np.float32), np.zeros((0, 2), np.float32), 5)
         assert out.shape == (0, 25) and out.dtype == np.float32
+
+
+class TestStrongestFirst:
+    @pytest.mark.parametrize("seed", range(4))
+    def test_equals_stable_argsort(self, seed):
+        from hopmatch.feature.moravec import strongest_first
+        rng = np.random.default_rng(seed)
+        resp = rng.choice(np.float32([0.0, 1e-30, 0.5, 0.5, 2.0, 3e38, 7.25]), 500)
+        resp = np.concatenate([resp, rng.random(300).astype(np.float32)])
+        assert np.array_equal(strongest_first(resp), np.argsort(-resp, kind="stable"))
+        assert strongest_first(resp[:0]).tolist() == []

@@ -447,6 +447,11 @@ def fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, sim, theta, sl
     off = np.zeros(n + 1, dtype=np.int64)
     idx = np.empty(n_inter, dtype=np.int32)
     w = np.empty(n_inter, dtype=np.float32)
+    disparity = np.empty(n, dtype=np.float64)  # eq. 6, once per neuron
+    for p in range(n):
+        dx = np.float64(left[ni[p], 0]) - np.float64(right[nk[p], 0])
+        dy = np.float64(left[ni[p], 1]) - np.float64(right[nk[p], 1])
+        disparity[p] = np.sqrt(dx ** 2 + dy ** 2)
     e = 0
     for p in range(n):
         i = ni[p]
@@ -455,7 +460,7 @@ def fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, sim, theta, sl
         yi = np.float64(left[i, 1])
         xk = np.float64(right[k, 0])
         yk = np.float64(right[k, 1])
-        d_ik = np.sqrt((xi - xk) ** 2 + (yi - yk) ** 2)
+        d_ik = disparity[p]
         for t in range(nb_off[i], nb_off[i + 1]):
             j = nb_idx[t]
             xj = np.float64(left[j, 0])
@@ -467,9 +472,8 @@ def fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, sim, theta, sl
                     continue
                 xl = np.float64(right[l, 0])
                 yl = np.float64(right[l, 1])
-                d_jl = np.sqrt((xj - xl) ** 2 + (yj - yl) ** 2)
                 len_r = np.sqrt((xk - xl) ** 2 + (yk - yl) ** 2)
-                x = abs(d_ik - d_jl) + abs(len_l - len_r) + sim[p] + sim[q]
+                x = abs(d_ik - disparity[q]) + abs(len_l - len_r) + sim[p] + sim[q]
                 idx[e] = q
                 w[e] = compatibility(x, theta, slope)
                 e += 1

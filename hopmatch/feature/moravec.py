@@ -152,7 +152,7 @@ def _select_points(v, nms_size, threshold, relative_threshold, margin, max_featu
     if mask is not None and len(yx):
         yx = yx[mask[yx[:, 0], yx[:, 1]]]
     resp = v[yx[:, 0], yx[:, 1]]
-    order = np.argsort(-resp, kind="stable")
+    order = strongest_first(resp)
     if max_features:
         order = order[:max_features]
     yx, resp = yx[order], resp[order]
@@ -160,6 +160,17 @@ def _select_points(v, nms_size, threshold, relative_threshold, margin, max_featu
     if subpixel and len(yx):
         pts += _quadratic_offsets(v, yx)
     return np.ascontiguousarray(pts), resp.astype(np.float32)
+
+
+def strongest_first(resp: np.ndarray) -> np.ndarray:
+    """``np.argsort(-resp, kind="stable")`` for non-negative float32 responses, faster: the
+    responses' bit patterns (monotonic for non-negative floats) and the indices make one
+    unique int64 key per point, which the default sort orders exactly as a stable sort
+    would."""
+    n = len(resp)
+    bits = np.ascontiguousarray(resp, dtype=np.float32).view(np.int32).astype(np.int64)
+    key = ((np.int64(0x7FFFFFFF) - bits) << np.int64(32)) | np.arange(n, dtype=np.int64)
+    return np.argsort(key)
 
 
 def _quadratic_offsets(v, yx):
