@@ -52,6 +52,37 @@ def directional_variances(g, window_size):
     return out
 
 
+def weighted_moravec_response(g, window_size, window_sigma):
+    """Eq. 1 with Gaussian window weights: ``V(p) = min_theta V_theta(p)``,
+    ``V_theta(p) = sum_{q in W(p)} w(q - p) (G(q) - G(q + u_theta))**2`` (float64 sums,
+    float32 result).
+
+    ``w(i, j) = k(i) k(j)`` with ``k(i) = exp(-i**2 / (2 sigma**2))`` for
+    ``i = -r..r``, normalised so that ``sum_i k(i) = window_size`` (the 2-D weights then
+    sum to ``window_size ** 2``, like the box's). Pixels within ``r + 1`` of the border get
+    0.
+    """
+    g = np.asarray(g, dtype=np.float32)
+    h, w = g.shape
+    r = window_size // 2
+    m = r + 1
+    k = [np.exp(-(i * i) / (2.0 * window_sigma**2)) for i in range(-r, r + 1)]
+    k = [window_size * ki / sum(k) for ki in k]
+    out = np.zeros((h, w), dtype=np.float32)
+    for y in range(m, h - m):
+        for x in range(m, w - m):
+            best = None
+            for ux, uy in DIRECTIONS:
+                total = 0.0
+                for i, qy in enumerate(range(y - r, y + r + 1)):
+                    for j, qx in enumerate(range(x - r, x + r + 1)):
+                        d = float(g[qy, qx]) - float(g[qy + uy, qx + ux])
+                        total += k[i] * k[j] * d * d
+                best = total if best is None else min(best, total)
+            out[y, x] = best
+    return out
+
+
 def quantise(g, levels_log2=19):
     """G on the power-of-two grid the Moravec kernel works on.
 

@@ -36,6 +36,8 @@ def test_create_and_accessors_round_trip():
         ({"window_size": "5"}, InvalidTypeError, "window_size"),
         ({"nms_size": 0}, InvalidArgumentError, "nms_size"),
         ({"threshold": -1.0}, InvalidArgumentError, "threshold"),
+        ({"window_sigma": -0.5}, InvalidArgumentError, "window_sigma"),
+        ({"window_sigma": "gauss"}, InvalidTypeError, "window_sigma"),
         ({"threshold": float("nan")}, InvalidArgumentError, "threshold"),
         ({"alpha": 0.0}, InvalidArgumentError, "alpha"),
         ({"on": "edges"}, InvalidArgumentError, "'gradient', 'intensity'"),
@@ -80,6 +82,20 @@ def test_detect_matches_the_pure_functions(textured):
     kps = det.detect(textured)
     np.testing.assert_array_equal(cv2.KeyPoint_convert(kps), pts)
     np.testing.assert_array_equal([k.response for k in kps], resp)
+
+
+def test_gaussian_window_matches_the_pure_functions(textured):
+    det = DericheMoravecDetector(window_sigma=0.85)
+    assert det.getWindowSigma() == 0.85 and DericheMoravecDetector().getWindowSigma() == 0.0
+    g = hopmatch.deriche_gradient(textured, det.getAlpha(), det.getOmega())
+    v = hopmatch.moravec_response(g, det.getWindowSize(), window_sigma=0.85)
+    pts, resp = hopmatch.moravec_points(v, det.getNmsSize(), threshold=det.getThreshold(),
+                                        margin=det.getWindowSize() // 2 + 1, subpixel=True)
+    kps = det.detect(textured)
+    np.testing.assert_array_equal(cv2.KeyPoint_convert(kps), pts)
+    np.testing.assert_array_equal([k.response for k in kps], resp)
+    box = cv2.KeyPoint_convert(DericheMoravecDetector().detect(textured))
+    assert len(box) != len(pts) or not np.array_equal(box, pts)
 
 
 def test_colour_and_dtypes_convert_as_cv2(textured):

@@ -8,6 +8,7 @@ import pytest
 
 import naive
 from hopmatch._kernels import moravec as _k
+from hopmatch.errors import InvalidArgumentError, InvalidTypeError
 from hopmatch.feature import gradient_windows, moravec_points, moravec_response
 
 
@@ -51,6 +52,47 @@ class TestMoravecResponse:
         assert (got[m:-m, m:-m] > 0).any()
         assert not got[:m].any() and not got[-m:].any()
         assert not got[:, :m].any() and not got[:, -m:].any()
+
+    @pytest.mark.parametrize("window_size", [3, 5, 7])
+    @pytest.mark.parametrize("window_sigma", [0.5, 0.85, 2.0])
+    def test_gaussian_window_equals_reference(self, window_size, window_sigma):
+        rng = np.random.default_rng(window_size * 13 + int(window_sigma * 100))
+        img = _random_image(rng, (19, 23), np.uint8)   # integers: on the kernel's grid
+        got = moravec_response(img, window_size=window_size, window_sigma=window_sigma)
+        want = naive.weighted_moravec_response(img.astype(np.float32), window_size, window_sigma)
+        assert got.dtype == np.float32 and got.shape == img.shape
+        np.testing.assert_allclose(got, want, rtol=1e-6, atol=0)
+        m = window_size // 2 + 1
+        assert (got[m:-m, m:-m] > 0).all()
+        assert not got[:m].any() and not got[-m:].any()
+        assert not got[:, :m].any() and not got[:, -m:].any()
+        # the weights matter: not the box of eq. 1
+        assert not np.allclose(got, naive.moravec_response(img.astype(np.float32), window_size))
+
+    def test_gaussian_window_limits(self):
+        rng = np.random.default_rng(3)
+        img = rng.integers(0, 256, (21, 17)).astype(np.float32)
+        box = naive.moravec_response(img, 5)
+        # sigma 0 is eq. 1 as printed, bit for bit; a 1-pixel window has nothing to weight
+        assert np.array_equal(moravec_response(img, 5, window_sigma=0.0), box)
+        assert np.array_equal(moravec_response(img, 1, window_sigma=0.85),
+                              naive.moravec_response(img, 1))
+        # a very wide Gaussian is flat over the window: the box again (weights sum to 25)
+        np.testing.assert_allclose(moravec_response(img, 5, window_sigma=1e4), box, rtol=1e-6)
+        # known value: an impulse, 3 x 3 window, weights (1, 2, 1) / 4 * 3 per axis; each
+        # direction sees the impulse as q = p (weight 4 * 9/16) and as q + u = p (weight of
+        # the neighbour q = p - u: 2 * 9/16 along an axis, 1 * 9/16 diagonally)
+        imp = np.zeros((9, 9), np.float32)
+        imp[4, 4] = 1.0
+        sigma = 1.0 / np.sqrt(2.0 * np.log(2.0))   # exp(-1 / (2 sigma**2)) = 1/2
+        v = moravec_response(imp, 3, window_sigma=sigma)
+        assert v[4, 4] == pytest.approx(9 / 16 * (4 + 1), rel=1e-6)
+
+    def test_gaussian_window_validation(self):
+        with pytest.raises(InvalidArgumentError, match="window_sigma"):
+            moravec_response(np.zeros((9, 9), np.float32), 3, window_sigma=-1.0)
+        with pytest.raises(InvalidTypeError, match="window_sigma"):
+            moravec_response(np.zeros((9, 9), np.float32), 3, window_sigma="wide")
 
     def test_kernel_directly(self):
         rng = np.random.default_rng(1)

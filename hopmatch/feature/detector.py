@@ -37,6 +37,11 @@ class DericheMoravecDetector(Configurable):
     ----------
     window_size : int
         Odd side of the Moravec window of eq. 1 (paper: 5).
+    window_sigma : float
+        Weights of that window: 0 (default) the box of eq. 1 as printed; > 0 Gaussian
+        weights of this standard deviation over the same square, scaled to the box's total
+        (Harris's remedy for Moravec's shift-sensitive box; see
+        :func:`~hopmatch.feature.moravec_response` and ``docs/parameters.md``).
     nms_size : int
         Side of the neighbourhood in which a point must be the strict maximum (eq. 2;
         paper: 20). It spans ``nms_size // 2`` pixels on each side.
@@ -59,9 +64,9 @@ class DericheMoravecDetector(Configurable):
     max_pixels : int
         Largest image (height x width) accepted; larger ones raise
         :class:`~hopmatch.errors.BudgetExceededError` before any copy is made. Detection
-        needs about 45 bytes per pixel at its peak (plus 4 x ``descriptor_size ** 2`` bytes
-        per keypoint); the default, 50 million pixels, bounds it near 2.2 GiB. See
-        ``docs/robustness.md``.
+        needs about 45 bytes per pixel at its peak (about 20 more with
+        ``window_sigma > 0``; plus 4 x ``descriptor_size ** 2`` bytes per keypoint); the
+        default, 50 million pixels, bounds it near 2.2 GiB. See ``docs/robustness.md``.
 
     Notes
     -----
@@ -82,6 +87,7 @@ class DericheMoravecDetector(Configurable):
     PARAMS = (
         Param("preset", "default", choice("default", "paper")),
         Param("window_size", 3, integer(1, 99, odd=True)),
+        Param("window_sigma", 0.0, real(0.0)),
         Param("nms_size", 3, integer(1, 999)),
         Param("threshold", 1e-3, real(0.0)),
         Param("relative_threshold", 0.0, real(0.0, 1.0)),
@@ -128,7 +134,7 @@ class DericheMoravecDetector(Configurable):
 
     def _points_on(self, g, mask):
         p = self._params
-        v = response(g, p["window_size"])
+        v = response(g, p["window_size"], p["window_sigma"])
         return _select_points(v, p["nms_size"], p["threshold"], p["relative_threshold"],
                               p["window_size"] // 2 + 1, p["max_features"], p["subpixel"], mask)
 

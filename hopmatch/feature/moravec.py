@@ -45,17 +45,66 @@ def quantise(g: np.ndarray) -> tuple[np.ndarray, float]:
     return gq, 2.0 ** (-2 * e)
 
 
-def response(g: np.ndarray, window_size: int) -> np.ndarray:
+def response(g: np.ndarray, window_size: int, window_sigma: float = 0.0) -> np.ndarray:
     """Eq. 1 on a validated float32 image (see :func:`moravec_response`)."""
     gq, scale = quantise(g)
+    if window_sigma > 0.0 and window_size > 1:
+        return _weighted_response(gq, scale, window_size, window_sigma)
     return _k.moravec_response(gq, window_size // 2, scale)
 
 
-def moravec_response(image, window_size: int = 5) -> np.ndarray:
+def window_weights(window_size: int, window_sigma: float) -> np.ndarray:
+    """The 1-D weights ``k`` of the window of eq. 1: ``w(i, j) = k[i] * k[j]``.
+
+    ``window_sigma == 0``: the box of eq. 1 as printed, all ones. Otherwise the Gaussian
+    ``cv2.getGaussianKernel(window_size, window_sigma)`` scaled to sum to ``window_size``,
+    so that the 2-D weights sum to ``window_size ** 2`` like the box's and V keeps its
+    magnitude (and the absolute ``threshold`` its meaning).
+    """
+    if window_sigma <= 0.0:
+        return np.ones(window_size, np.float64)
+    k = cv2.getGaussianKernel(window_size, window_sigma, cv2.CV_64F).ravel()
+    return k * (window_size / k.sum())
+
+
+def _weighted_response(gq: np.ndarray, scale: float, window_size: int,
+                       window_sigma: float) -> np.ndarray:
+    """Eq. 1 with Gaussian window weights on the quantised image ``gq`` (int64).
+
+    Each direction's squared differences (exact in float64: ``|gq| <= 2**19``) are summed
+    with the separable weights of :func:`window_weights` by ``cv2.sepFilter2D`` (float64),
+    then the minimum is taken over the four directions; border band as in the box kernel.
+    """
+    h, w = gq.shape
+    out = np.zeros((h, w), np.float32)
+    m = window_size // 2 + 1
+    if h < 2 * m + 1 or w < 2 * m + 1:
+        return out
+    k = window_weights(window_size, window_sigma)
+    sq = np.zeros((h, w), np.float64)  # (G(q) - G(q + u))**2 for q one pixel inside the image
+    inner = sq[1:h - 1, 1:w - 1]
+    buf = np.empty((h, w), np.float64)
+    vmin = np.empty((h, w), np.float64)
+    for t, (ux, uy) in enumerate(_k.DIRECTIONS.tolist()):
+        np.subtract(gq[1:h - 1, 1:w - 1], gq[1 + uy:h - 1 + uy, 1 + ux:w - 1 + ux], out=inner,
+                    casting="unsafe")
+        np.square(inner, out=inner)
+        cv2.sepFilter2D(sq, cv2.CV_64F, k, k, dst=buf if t else vmin,
+                        borderType=cv2.BORDER_CONSTANT)
+        if t:
+            np.minimum(vmin, buf, out=vmin)
+    del sq, inner, buf
+    np.multiply(vmin, scale, out=vmin)
+    out[m:h - m, m:w - m] = vmin[m:h - m, m:w - m]
+    return out
+
+
+def moravec_response(image, window_size: int = 5, window_sigma: float = 0.0) -> np.ndarray:
     """Moravec directional variance, eq. 1: ``V(p) = min_theta V_theta(p)``.
 
-    ``V_theta(p) = sum_{q in W(p)} (G(q) - G(q + u_theta))**2`` over a ``window_size``
-    square window, for the unit steps ``u_theta`` = (1, 0), (1, 1), (0, 1), (-1, 1).
+    ``V_theta(p) = sum_{q in W(p)} w(q - p) (G(q) - G(q + u_theta))**2`` over a
+    ``window_size`` square window, for the unit steps ``u_theta`` = (1, 0), (1, 1), (0, 1),
+    (-1, 1). The weights ``w`` are all 1 (eq. 1 as printed) unless ``window_sigma > 0``.
 
     Parameters
     ----------
@@ -63,6 +112,13 @@ def moravec_response(image, window_size: int = 5) -> np.ndarray:
         The image G the variance is measured on (gradient magnitude or grey levels).
     window_size : int
         Odd side of the window W (paper: 5).
+    window_sigma : float
+        0 (default): the box window of eq. 1. > 0: Gaussian weights of this standard
+        deviation over the same ``window_size`` square, ``w(i, j) = k[i] k[j]`` with ``k``
+        from ``cv2.getGaussianKernel`` scaled so that the weights sum to
+        ``window_size ** 2`` (:func:`window_weights`) -- Harris's remedy for the noisy,
+        shift-sensitive response of Moravec's box window. 0.85 with ``window_size=3``
+        is about the binomial window (1, 2, 1) / 4 x 3.
 
     Returns
     -------
@@ -73,7 +129,9 @@ def moravec_response(image, window_size: int = 5) -> np.ndarray:
     Notes
     -----
     G is first put on a power-of-two grid fine enough for 2**19 levels (:func:`quantise`):
-    the window sums are then exact, computed by sliding sums in O(1) per pixel.
+    the box window sums are then exact, computed by sliding sums in O(1) per pixel. The
+    Gaussian sums are float64 (``cv2.sepFilter2D``), within about 1e-15 relative of the
+    textbook double loop, and need about 20 more bytes per pixel.
 
     Examples
     --------
@@ -85,7 +143,8 @@ def moravec_response(image, window_size: int = 5) -> np.ndarray:
     """
     g = _as_float_image(image)
     window_size = integer(1, 99, odd=True)("window_size", window_size)
-    return response(g, window_size)
+    window_sigma = real(0.0)("window_sigma", window_sigma)
+    return response(g, window_size, window_sigma)
 
 
 def moravec_points(
