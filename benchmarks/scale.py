@@ -1,7 +1,7 @@
 """Scale benchmark: a 2964 x 2000 pair, 1k to 20k keypoints per image.
 
 Run: ``python benchmarks/scale.py`` (single thread; each configuration runs in a fresh
-process so that its peak memory, ``ru_maxrss``, is its own).
+process so that its peak memory, ``ru_maxrss``, is its own; times are the best of three).
 
 The pair is scikit-image's motorcycle upsampled 4x (bicubic) to the full Middlebury 2014
 size, 2964 x 2000. ``max_features`` sets the keypoint count. Prints time and peak memory
@@ -34,17 +34,23 @@ mode, n = sys.argv[1], int(sys.argv[2])
 if mode == "sift":
     sift = cv2.SIFT_create()
     sift.detectAndCompute(left[:200, :200], None)
-    t0 = time.perf_counter()
-    kl, _ = sift.detectAndCompute(left, None)
-    kr, _ = sift.detectAndCompute(right, None)
-    out = dict(seconds=time.perf_counter() - t0, keypoints=(len(kl) + len(kr)) // 2)
+    best = float("inf")
+    for _ in range(3):  # best of three, as for hopmatch below
+        t0 = time.perf_counter()
+        kl, _ = sift.detectAndCompute(left, None)
+        kr, _ = sift.detectAndCompute(right, None)
+        best = min(best, time.perf_counter() - t0)
+    out = dict(seconds=best, keypoints=(len(kl) + len(kr)) // 2)
 else:
     hopmatch.warmup()
     params = dict(max_features=n, nms_size=3, max_disparity=260)
     hopmatch.match_stereo(left[:300, :400], right[:300, :400], **params)
-    t0 = time.perf_counter()
-    res = hopmatch.match_stereo(left, right, **params)
-    out = dict(seconds=time.perf_counter() - t0,
+    best = float("inf")
+    for _ in range(3):
+        t0 = time.perf_counter()
+        res = hopmatch.match_stereo(left, right, **params)
+        best = min(best, time.perf_counter() - t0)
+    out = dict(seconds=best,
                keypoints=(len(res.points_left) + len(res.points_right)) // 2,
                matches=int(len(res.query_idx)), neurons=int(len(res.network.neuron_left)),
                interactions=res.network.n_interactions, timings=res.timings)
