@@ -1,6 +1,8 @@
 """End-to-end speed on motorcycle: detect left, detect right, match.
 
-Run: ``python benchmarks/end_to_end.py`` (single thread; prints a Markdown table).
+Run: ``python benchmarks/end_to_end.py`` (single thread; prints a Markdown table);
+``--profile`` also prints where hopmatch's time goes (cProfile over 20 pairs: the functions
+and kernels with the most time of their own, per pair).
 
 Peers, timed in the same run on the same images: ORB (3000 features) + BFMatcher (Hamming)
 knnMatch k=2 + ratio test 0.75, and SIFT + BFMatcher (L2) knnMatch k=2 + ratio test 0.75.
@@ -9,6 +11,8 @@ Goals: hopmatch <= 1.0x ORB, <= 0.10x SIFT, under 33 ms.
 
 from __future__ import annotations
 
+import cProfile
+import pstats
 import sys
 from pathlib import Path
 
@@ -58,6 +62,27 @@ def main() -> None:
                     ("ORB(3000) + BFMatcher ratio 0.75", t_orb),
                     ("SIFT + BFMatcher ratio 0.75", t_sift)]:
         print(f"| {name} | {t * 1e3:.1f} | {1 / t:.1f} | {t_hop / t:.2f} |")
+    if "--profile" in sys.argv[1:]:
+        profile(gl, gr)
+
+
+def profile(gl, gr, pairs: int = 20, rows: int = 15) -> None:
+    """Own time per pair of the functions hopmatch spends most in (cProfile)."""
+    prof = cProfile.Profile()
+    prof.enable()
+    for _ in range(pairs):
+        hopmatch.match_stereo(gl, gr)
+    prof.disable()
+    stats = pstats.Stats(prof).stats
+    top = sorted(stats.items(), key=lambda kv: kv[1][2], reverse=True)[:rows]
+    total = sum(v[2] for v in stats.values()) / pairs
+    print(f"\n## Where hopmatch's time goes ({pairs} pairs under cProfile, "
+          f"{total * 1e3:.1f} ms per pair with the profiler's overhead)\n")
+    print("| function | own ms per pair | share |")
+    print("|---|---:|---:|")
+    for (path, line, name), (_, _, own, _, _) in top:
+        where = name if path == "~" else f"{Path(path).name}:{name}"
+        print(f"| `{where}` | {own / pairs * 1e3:.2f} | {own / pairs / total:.0%} |")
 
 
 if __name__ == "__main__":
