@@ -27,6 +27,22 @@ def best_time(fn, repeat: int = 7, warmup: int = 1) -> float:
     return min(times)
 
 
+def best_times_interleaved(fns: dict, repeat: int = 7, warmup: int = 1) -> dict:
+    """Best wall time of each function, in seconds, over ``repeat`` rounds that run every
+    function once in turn: a machine that speeds up or slows down during the benchmark
+    then affects every method alike, and the ratios stay fair."""
+    for _ in range(warmup):
+        for fn in fns.values():
+            fn()
+    best = {name: float("inf") for name in fns}
+    for _ in range(repeat):
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            fn()
+            best[name] = min(best[name], time.perf_counter() - t0)
+    return best
+
+
 def motorcycle_bgr():
     from hopmatch.datasets import load_motorcycle
 

@@ -1,6 +1,8 @@
 """End-to-end speed on motorcycle: detect left, detect right, match.
 
-Run: ``python benchmarks/end_to_end.py`` (single thread; prints a Markdown table);
+Run: ``python benchmarks/end_to_end.py`` (single thread; prints a Markdown table; hopmatch
+and ORB are timed in interleaved rounds, best of 15 each, so that a drifting machine
+affects both alike; SIFT, ten times slower, best of 5);
 ``--profile`` also prints where hopmatch's time goes (cProfile over 20 pairs: the functions
 and kernels with the most time of their own, per pair).
 
@@ -19,7 +21,13 @@ from pathlib import Path
 import cv2
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import best_time, machine, motorcycle_bgr, single_thread  # noqa: E402
+from _common import (  # noqa: E402
+    best_time,
+    best_times_interleaved,
+    machine,
+    motorcycle_bgr,
+    single_thread,
+)
 
 import hopmatch  # noqa: E402
 
@@ -45,9 +53,12 @@ def main() -> None:
     orb = ratio_pipeline(cv2.ORB_create(3000), cv2.NORM_HAMMING)
     sift = ratio_pipeline(cv2.SIFT_create(), cv2.NORM_L2)
 
-    t_hop = best_time(lambda: hopmatch.match_stereo(gl, gr), repeat=15)
-    t_hop_kp = best_time(lambda: hopmatch.match_stereo(gl, gr).matches, repeat=15)
-    t_orb = best_time(lambda: orb(gl, gr), repeat=15)
+    times = best_times_interleaved({
+        "hop": lambda: hopmatch.match_stereo(gl, gr),
+        "hop_kp": lambda: hopmatch.match_stereo(gl, gr).matches,
+        "orb": lambda: orb(gl, gr),
+    }, repeat=15)
+    t_hop, t_hop_kp, t_orb = times["hop"], times["hop_kp"], times["orb"]
     t_sift = best_time(lambda: sift(gl, gr), repeat=5)
     res = hopmatch.match_stereo(gl, gr)
     print(f"Machine: {machine()}\n")

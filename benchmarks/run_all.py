@@ -15,7 +15,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 DOC = HERE.parent / "docs" / "performance.md"
-SCRIPTS = ["end_to_end.py", "detector.py", "scale.py", "first_call.py"]
+SCRIPTS = [["end_to_end.py", "--profile"], ["detector.py"], ["scale.py"], ["first_call.py"]]
 
 
 def main() -> None:
@@ -26,10 +26,11 @@ def main() -> None:
         "script, run on the machine it names (2 cores, no GPU). Ratios are measured in the "
         "same run against OpenCV and scikit-image peers; times are the best of several runs.\n",
     ]
-    for script in SCRIPTS:
-        out = subprocess.run([sys.executable, str(HERE / script)], capture_output=True,
+    for script, *args in SCRIPTS:
+        out = subprocess.run([sys.executable, str(HERE / script), *args], capture_output=True,
                              text=True, check=True).stdout
-        parts.append(f"\n---\n\n`python benchmarks/{script}`\n\n{out.strip()}\n")
+        command = " ".join([f"benchmarks/{script}", *args])
+        parts.append(f"\n---\n\n`python {command}`\n\n{out.strip()}\n")
     fd, tmp = tempfile.mkstemp(dir=DOC.parent, prefix=".performance.", suffix=".md")
     with os.fdopen(fd, "w") as fh:
         fh.write("\n".join(parts))
