@@ -11,6 +11,10 @@ import numpy as np
 
 from .._config import jit
 
+#: Runs longer than this are sorted with NumPy's O(n log n) sorts, shorter ones by insertion
+#: (faster on the short runs that are the rule; crowded inputs make long ones).
+SHORT_RUN = 32
+
 # --------------------------------------------------------------------------------------
 # candidate pairs and neighbourhoods
 # --------------------------------------------------------------------------------------
@@ -50,7 +54,14 @@ def right_rows(right):
             row_values[r] = rows[order[t]]
             row_start[r] = t
     row_start[n_rows] = n
-    for r in range(n_rows):  # insertion sort by (x, index) within the row
+    for r in range(n_rows):  # sort each row by (x, index): it is in index order already
+        if row_start[r + 1] - row_start[r] > SHORT_RUN:
+            seg = order[row_start[r]:row_start[r + 1]].copy()
+            xs = np.empty(seg.shape[0], dtype=np.float32)
+            for t in range(seg.shape[0]):
+                xs[t] = right[seg[t], 0]
+            order[row_start[r]:row_start[r + 1]] = seg[np.argsort(xs, kind="mergesort")]
+            continue
         for t in range(row_start[r] + 1, row_start[r + 1]):
             key = order[t]
             u = t - 1
@@ -207,15 +218,21 @@ def fill_candidates_epipolar(left, right, order_x, rx_sorted, f, dmin, dmax, vma
 
 @jit
 def sort_groups(ni, nk, values):
-    """Sort, in place, each run of equal ``ni`` by ``nk`` (insertion sort: the runs are
-    short), permuting ``values`` alike: candidate pairs grouped by left point become
-    sorted by (i, k)."""
+    """Sort, in place, each run of equal ``ni`` by ``nk`` (by insertion when the run is
+    short, else ``np.argsort``), permuting ``values`` alike: candidate pairs grouped by left
+    point become sorted by (i, k)."""
     n = ni.shape[0]
     lo = 0
     while lo < n:
         hi = lo + 1
         while hi < n and ni[hi] == ni[lo]:
             hi += 1
+        if hi - lo > SHORT_RUN:
+            perm = np.argsort(nk[lo:hi], kind="mergesort")
+            nk[lo:hi] = nk[lo:hi][perm]
+            values[lo:hi] = values[lo:hi][perm]
+            lo = hi
+            continue
         for t in range(lo + 1, hi):
             key = nk[t]
             val = values[t]
@@ -231,7 +248,10 @@ def sort_groups(ni, nk, values):
 
 @jit
 def insertion_sort(a, lo, hi):
-    """Sort ``a[lo:hi]`` in place (the lists sorted here are short)."""
+    """Sort ``a[lo:hi]`` in place: by insertion when the run is short, else ``np.sort``."""
+    if hi - lo > SHORT_RUN:
+        a[lo:hi] = np.sort(a[lo:hi])
+        return
     for t in range(lo + 1, hi):
         key = a[t]
         u = t - 1
