@@ -30,7 +30,8 @@ def bilinear_windows(g, points, radius):
         ax = x - fx0
         ay = y - fy0
         if not (ax == ax and ay == ay):  # NaN centre: every sample is NaN
-            out[p, :] = np.nan
+            for t in range(k * k):
+                out[p, t] = np.nan
             continue
         fx0 = min(max(fx0, -2.0 * k), w + 2.0 * k)  # keeps the integer conversion defined
         fy0 = min(max(fy0, -2.0 * k), h + 2.0 * k)

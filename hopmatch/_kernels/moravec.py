@@ -115,14 +115,16 @@ def strict_maxima(v, vmax, radius, margin, threshold):
                     cap *= 2
                     ys2 = np.empty(cap, dtype=np.int64)
                     xs2 = np.empty(cap, dtype=np.int64)
-                    ys2[:n] = ys[:n]
-                    xs2[:n] = xs[:n]
+                    for t in range(n):
+                        ys2[t] = ys[t]
+                        xs2[t] = xs[t]
                     ys = ys2
                     xs = xs2
                 ys[n] = y
                 xs[n] = x
                 n += 1
     out = np.empty((n, 2), dtype=np.int64)
-    out[:, 0] = ys[:n]
-    out[:, 1] = xs[:n]
+    for t in range(n):
+        out[t, 0] = ys[t]
+        out[t, 1] = xs[t]
     return out

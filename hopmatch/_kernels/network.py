@@ -29,52 +29,6 @@ def _window_query(ys_sorted, y_lo, y_hi):
 
 
 @jit
-def right_rows(right):
-    """The right points bucketed by image row ``floor(y)``, each row sorted by x.
-
-    Returns ``(row_values, row_start, order)``: the distinct rows (increasing), the CSR
-    offsets of each row's points in ``order``, and the point indices row by row, x
-    increasing (ties: index increasing).
-    """
-    n = right.shape[0]
-    rows = np.empty(n, dtype=np.int64)
-    for k in range(n):
-        rows[k] = np.int64(np.floor(np.float64(right[k, 1])))
-    order = np.argsort(rows, kind="mergesort").astype(np.int64)
-    n_rows = 0
-    for t in range(n):
-        if t == 0 or rows[order[t]] != rows[order[t - 1]]:
-            n_rows += 1
-    row_values = np.empty(n_rows, dtype=np.int64)
-    row_start = np.empty(n_rows + 1, dtype=np.int64)
-    r = -1
-    for t in range(n):
-        if t == 0 or rows[order[t]] != rows[order[t - 1]]:
-            r += 1
-            row_values[r] = rows[order[t]]
-            row_start[r] = t
-    row_start[n_rows] = n
-    for r in range(n_rows):  # sort each row by (x, index): it is in index order already
-        if row_start[r + 1] - row_start[r] > SHORT_RUN:
-            seg = order[row_start[r]:row_start[r + 1]].copy()
-            xs = np.empty(seg.shape[0], dtype=np.float32)
-            for t in range(seg.shape[0]):
-                xs[t] = right[seg[t], 0]
-            order[row_start[r]:row_start[r + 1]] = seg[np.argsort(xs, kind="mergesort")]
-            continue
-        for t in range(row_start[r] + 1, row_start[r + 1]):
-            key = order[t]
-            u = t - 1
-            while u >= row_start[r] and (right[order[u], 0] > right[key, 0]
-                                         or (right[order[u], 0] == right[key, 0]
-                                             and order[u] > key)):
-                order[u + 1] = order[u]
-                u -= 1
-            order[u + 1] = key
-    return row_values, row_start, order
-
-
-@jit
 def _lower_bound(a, lo, hi, value):
     """First index t in [lo, hi) with ``a[t] >= value`` (``hi`` if none); ``a`` sorted."""
     while lo < hi:
@@ -102,7 +56,8 @@ def _upper_bound(a, lo, hi, value):
 def _grown(a, n, cap):
     """A copy of ``a[:n]`` with room for ``cap`` entries."""
     out = np.empty(cap, dtype=a.dtype)
-    out[:n] = a[:n]
+    for t in range(n):  # an element loop: a slice assignment compiles a shape check
+        out[t] = a[t]
     return out
 
 
@@ -113,8 +68,9 @@ def band_candidates(left, row_values, row_start, order, rx, ry, dmin, dmax, vmax
     (float32 arithmetic, as the points are stored), as ``(ni, nk, n)``: grouped by left point
     i increasing, each group in row order (:func:`sort_groups` sorts them by k).
 
-    ``row_values, row_start, order`` come from :func:`right_rows`, ``rx, ry`` are the right
-    points' coordinates in that order. Only the rows ``floor(yl - vmax) .. floor(yl + vmax)``
+    ``row_values`` are the distinct rows ``floor(y)`` of the right points (increasing),
+    ``order`` the right points row by row with x increasing, ``row_start`` each row's
+    offsets in it, and ``rx, ry`` the right points' coordinates in that order. Only the rows ``floor(yl - vmax) .. floor(yl + vmax)``
     are visited, and in each row only the x range of the disparity band (binary search, one
     pixel of slack for rounding): the cost grows with the number of candidates, not with
     ``Nl x Nr``. The output grows by doubling up to ``max_neurons`` entries; past that the
@@ -227,10 +183,13 @@ def sort_groups(ni, nk, values):
         hi = lo + 1
         while hi < n and ni[hi] == ni[lo]:
             hi += 1
-        if hi - lo > SHORT_RUN:
-            perm = np.argsort(nk[lo:hi], kind="mergesort")
-            nk[lo:hi] = nk[lo:hi][perm]
-            values[lo:hi] = values[lo:hi][perm]
+        if hi - lo > SHORT_RUN:  # the keys of a run are distinct: any sort will do
+            perm = np.argsort(nk[lo:hi]) + lo
+            keys = nk[perm]
+            vals = values[perm]
+            for t in range(hi - lo):
+                nk[lo + t] = keys[t]
+                values[lo + t] = vals[t]
             lo = hi
             continue
         for t in range(lo + 1, hi):
@@ -250,7 +209,9 @@ def sort_groups(ni, nk, values):
 def insertion_sort(a, lo, hi):
     """Sort ``a[lo:hi]`` in place: by insertion when the run is short, else ``np.sort``."""
     if hi - lo > SHORT_RUN:
-        a[lo:hi] = np.sort(a[lo:hi])
+        ordered = np.sort(a[lo:hi])
+        for t in range(hi - lo):
+            a[lo + t] = ordered[t]
         return
     for t in range(lo + 1, hi):
         key = a[t]

@@ -82,11 +82,17 @@ def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
 
 
 def _right_band_index(right):
-    """What the rectified candidate search needs of the right points: ``right_rows`` and
-    the coordinates in its order."""
-    rows, row_start, order = _k.right_rows(right)
-    return (rows, row_start, order, np.ascontiguousarray(right[order, 0]),
-            np.ascontiguousarray(right[order, 1]))
+    """What the rectified candidate search (``band_candidates``) needs of the right points:
+    the distinct rows ``floor(y)``, the points row by row with x increasing (ties: index
+    increasing), each row's offsets in that order, and the coordinates in that order."""
+    rows = np.floor(right[:, 1].astype(np.float64)).astype(np.int64)
+    order = np.lexsort((right[:, 0], rows))  # stable: equal (row, x) keep index order
+    in_order = rows[order]
+    first = np.zeros(0, dtype=np.int64)
+    if len(order):
+        first = np.flatnonzero(np.r_[True, in_order[1:] != in_order[:-1]])
+    return (in_order[first], np.r_[first, len(order)].astype(np.int64), order,
+            np.ascontiguousarray(right[order, 0]), np.ascontiguousarray(right[order, 1]))
 
 
 def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max_neurons,
