@@ -145,6 +145,23 @@ class TestCandidates:
         _k.sort_groups(ui, uk, values)
         assert np.array_equal(uk, nk) and np.array_equal(values, nk * 10.0)
 
+    def test_right_points_ordered_by_row_then_x_then_index(self):
+        from hopmatch.matching.network import _right_band_index
+        rng = np.random.default_rng(11)
+        pts = np.column_stack([rng.choice([-3.5, -0.0, 0.0, 1e-30, 2.25, -1e6, 7.0], 400),
+                               rng.choice([-2.5, -0.5, 0.0, 0.75, 3.0], 400)])
+        pts = np.concatenate([pts, rng.uniform(-50, 50, (300, 2))]).astype(np.float32)
+        rows, row_start, order, rx, ry = _right_band_index(pts)
+        floor_y = np.floor(pts[:, 1]).astype(np.int64)
+        want = sorted(range(len(pts)), key=lambda k: (floor_y[k], float(pts[k, 0]), k))
+        # -0.0 and 0.0 are equal as numbers; only the index decides between them
+        assert [(floor_y[k], float(pts[k, 0])) for k in order] == \
+            [(floor_y[k], float(pts[k, 0])) for k in want]
+        assert rows.tolist() == sorted(set(floor_y.tolist()))
+        assert all((floor_y[order[row_start[r]:row_start[r + 1]]] == rows[r]).all()
+                   for r in range(len(rows)))
+        assert np.array_equal(rx, pts[order, 0]) and np.array_equal(ry, pts[order, 1])
+
     def test_subpixel_rows_at_the_band_edges(self):
         # right points in the rows just outside/inside floor(yl +- vmax)
         left = np.array([[30.0, 10.5]], np.float32)

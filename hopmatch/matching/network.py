@@ -86,7 +86,12 @@ def _right_band_index(right):
     the distinct rows ``floor(y)``, the points row by row with x increasing (ties: index
     increasing), each row's offsets in that order, and the coordinates in that order."""
     rows = np.floor(right[:, 1].astype(np.float64)).astype(np.int64)
-    order = np.lexsort((right[:, 0], rows))  # stable: equal (row, x) keep index order
+    # one stable sort of (row, x): x's float32 bits made monotonic, as an unsigned 32-bit
+    # number, below the row (coordinates are validated to |v| < 2**30)
+    bits = np.ascontiguousarray(right[:, 0], dtype=np.float32).view(np.int32).astype(np.int64)
+    x_key = np.where(bits < 0, -bits - 2**31 - 1, bits) + 2**31
+    key = ((rows - (rows.min() if len(rows) else 0)) << 32) | x_key
+    order = np.argsort(key, kind="stable")  # equal (row, x) keep index order
     in_order = rows[order]
     first = np.zeros(0, dtype=np.int64)
     if len(order):
