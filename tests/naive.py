@@ -200,6 +200,26 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical):
     return pairs
 
 
+def epipolar_candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, f):
+    """Every (i, k) with ``min_disparity <= xl - xr <= max_disparity`` (float32, as the
+    points) and the right point within ``max_vertical`` of the epipolar line
+    ``F (xl, yl, 1)`` (float64), in (i, k) order."""
+    left = np.asarray(left, dtype=np.float32)
+    right = np.asarray(right, dtype=np.float32)
+    dmin, dmax = np.float32(min_disparity), np.float32(max_disparity)
+    f = np.asarray(f, dtype=np.float64)
+    pairs = []
+    for i in range(len(left)):
+        a, b, c = f @ [float(left[i, 0]), float(left[i, 1]), 1.0]
+        norm = math.hypot(a, b)
+        for k in range(len(right)):
+            d = left[i, 0] - right[k, 0]
+            dist = (a * float(right[k, 0]) + b * float(right[k, 1]) + c) / norm if norm else math.inf
+            if dmin <= d <= dmax and abs(dist) <= max_vertical:
+                pairs.append((i, k))
+    return pairs
+
+
 def neighbours(points, width, height):
     """For each point i, the sorted list of the other points j with ``|xj - xi| <= width/2``
     and ``|yj - yi| <= height/2``."""

@@ -189,6 +189,18 @@ class TestCandidates:
         ni, nk = candidate_pairs(left, right, 0.0, 300.0, 1.0, budget)
         assert list(zip(ni.tolist(), nk.tolist())) == want
 
+    @pytest.mark.parametrize("seed", [0, 1])
+    def test_epipolar_band_equals_brute_force_and_keeps_the_budget(self, seed):
+        left, right, _, _ = make_problem(seed, 60, 70)
+        rng = np.random.default_rng(seed)
+        f = np.array([[0, 0, 0.001], [0, 0, -1], [0, 1, 0]]) + rng.normal(0, 1e-3, (3, 3))
+        want = naive.epipolar_candidate_pairs(left, right, 0.0, 20.0, 2.0, f)
+        assert len(want) > 20
+        ni, nk = candidate_pairs(left, right, 0.0, 20.0, 2.0, len(want), f)
+        assert list(zip(ni.tolist(), nk.tolist())) == want
+        with pytest.raises(BudgetExceededError, match=f"would have {len(want)} neurons"):
+            candidate_pairs(left, right, 0.0, 20.0, 2.0, len(want) - 1, f)
+
     def test_limits_are_inclusive(self):
         left = np.array([[20, 10]], np.float32)
         right = np.array([[20, 10], [5, 10], [4, 10], [10, 8], [10, 7.5], [21, 10]], np.float32)

@@ -131,30 +131,18 @@ def epipolar_offset(f, xl, yl, xr, yr):
 
 
 @jit
-def count_candidates_epipolar(left, right, order_x, rx_sorted, f, dmin, dmax, vmax):
-    """Number of pairs with ``dmin <= xl - xr <= dmax`` and the right point within ``vmax``
-    of the left point's epipolar line (fundamental matrix ``f``, float64 3 x 3)."""
-    n = 0
-    for i in range(left.shape[0]):
-        xl = np.float64(left[i, 0])
-        yl = np.float64(left[i, 1])
-        a, b = _window_query(rx_sorted, np.float32(xl - dmax), np.float32(xl - dmin))
-        for t in range(a, b):
-            k = order_x[t]
-            d = left[i, 0] - right[k, 0]
-            if d >= dmin and d <= dmax:
-                if abs(epipolar_offset(f, xl, yl, np.float64(right[k, 0]),
-                                       np.float64(right[k, 1]))) <= vmax:
-                    n += 1
-    return n
+def epipolar_candidates(left, right, order_x, rx_sorted, f, dmin, dmax, vmax, max_neurons):
+    """The pairs with ``dmin <= xl - xr <= dmax`` and the right point within ``vmax`` of the
+    left point's epipolar line (fundamental matrix ``f``, float64 3 x 3), as ``(ni, nk, n)``
+    grouped by left point i increasing (within a group in x order: :func:`sort_groups` sorts
+    them). ``order_x`` sorts the right points by x, ``rx_sorted`` is their x in that order.
 
-
-@jit
-def fill_candidates_epipolar(left, right, order_x, rx_sorted, f, dmin, dmax, vmax, n):
-    """The pairs counted by :func:`count_candidates_epipolar`, grouped by left point i
-    increasing (within a group in x order: :func:`sort_groups` sorts them)."""
-    ni = np.empty(n, dtype=np.int32)
-    nk = np.empty(n, dtype=np.int32)
+    As :func:`band_candidates`: the output grows up to ``max_neurons`` entries; past that the
+    pairs are only counted, ``n > max_neurons`` says so and ``ni``/``nk`` are empty.
+    """
+    cap = min(max_neurons, 8 * left.shape[0] + 1024)
+    ni = np.empty(cap, dtype=np.int32)
+    nk = np.empty(cap, dtype=np.int32)
     p = 0
     for i in range(left.shape[0]):
         xl = np.float64(left[i, 0])
@@ -166,10 +154,17 @@ def fill_candidates_epipolar(left, right, order_x, rx_sorted, f, dmin, dmax, vma
             if d >= dmin and d <= dmax:
                 if abs(epipolar_offset(f, xl, yl, np.float64(right[k, 0]),
                                        np.float64(right[k, 1]))) <= vmax:
-                    nk[p] = k
-                    ni[p] = i
+                    if p == cap and cap < max_neurons:
+                        cap = min(2 * cap, max_neurons)
+                        ni = _grown(ni, p, cap)
+                        nk = _grown(nk, p, cap)
+                    if p < cap:
+                        ni[p] = i
+                        nk[p] = k
                     p += 1
-    return ni, nk
+    if p > max_neurons:
+        return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), p
+    return ni[:p].copy(), nk[:p].copy(), p
 
 
 @jit

@@ -113,16 +113,14 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
     what is left after gating with ``sort_groups``: cheaper).
     """
     band = (np.float32(min_disparity), np.float32(max_disparity), np.float32(max_vertical))
+    budget = np.int64(min(max_neurons, 2**62))
     if fundamental is None:
-        ni, nk, n = _k.band_candidates(left, *_right_band_index(right), *band,
-                                       np.int64(min(max_neurons, 2**62)))
+        ni, nk, n = _k.band_candidates(left, *_right_band_index(right), *band, budget)
     else:
         order = np.argsort(right[:, 0], kind="stable")
-        args = (left, right, order, np.ascontiguousarray(right[order, 0]),
-                np.ascontiguousarray(fundamental, dtype=np.float64))
-        n = _k.count_candidates_epipolar(*args, *band)
-        if n <= max_neurons:
-            ni, nk = _k.fill_candidates_epipolar(*args, *band, n)
+        ni, nk, n = _k.epipolar_candidates(
+            left, right, order, np.ascontiguousarray(right[order, 0]),
+            np.ascontiguousarray(fundamental, dtype=np.float64), *band, budget)
     if n > max_neurons:
         raise BudgetExceededError(
             f"the network would have {n} neurons (candidate pairs), more than max_neurons="
