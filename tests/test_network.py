@@ -86,10 +86,9 @@ def kernel_network(left, right, desc_l, desc_r, p):
     start = _starts(ni, len(left))
     nb_off, nb_idx = _k.neighbour_lists(left, np.float32(p["neighbour_width"] / 2),
                                         np.float32(p["neighbour_height"] / 2))
-    n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
-    off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx,
-                                       p["similarity_weight"] * sim, p["theta"], p["slope"],
-                                       n_inter)
+    off, idx, w, n_inter = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx,
+                                                p["similarity_weight"] * sim, p["theta"],
+                                                p["slope"], np.int64(10**9))
     return dict(ni=ni, nk=nk, sim=sim, start=start, nb_off=nb_off, nb_idx=nb_idx,
                 n_inter=n_inter, off=off, idx=idx, w=w)
 
@@ -565,6 +564,48 @@ class TestSparsity:
         assert net["n_inter"] <= bound
         if p["similarity_gate"] is None and not p["max_candidates"]:
             assert (net["n_inter"], bound) == _brute_force_interactions(problem[0], problem[1], p)
+
+    def test_interactions_grow_and_count_past_the_budget(self):
+        """Crowded points give more than 32 interactions per neuron, so the CSR output
+        grows; a budget of exactly the count gives the same arrays, one less only counts."""
+        left, right, dl, dr = make_problem(5, 150, width=30.0, height=12.0)
+        p = params(max_disparity=15.0, max_vertical=3.0, similarity_gate=None)
+        net = kernel_network(left, right, dl, dr, p)
+        n_inter = net["n_inter"]
+        assert n_inter > 32 * len(net["ni"]) + 1024  # past the first allocation
+        args = (left, right, net["ni"], net["nk"], net["start"], net["nb_off"], net["nb_idx"],
+                p["similarity_weight"] * net["sim"], p["theta"], p["slope"])
+        off, idx, w, n = _k.fill_interactions(*args, np.int64(n_inter))
+        assert n == n_inter
+        np.testing.assert_array_equal(off, net["off"])
+        np.testing.assert_array_equal(idx, net["idx"])
+        np.testing.assert_array_equal(w, net["w"])
+        _, idx, w, n = _k.fill_interactions(*args, np.int64(n_inter - 1))
+        assert (n, len(idx), len(w)) == (n_inter, 0, 0)
+
+    @pytest.mark.parametrize("seed", range(6))
+    def test_neighbour_pairs_bound_dense_equals_sparse(self, seed):
+        """The dense-grid count of the neighbour bound equals the sorted-key count, and
+        bounds the brute-force number of ordered neighbour pairs (crowded and spread-out
+        points, coincident points included)."""
+        from hopmatch.matching.matcher import (
+            neighbour_pairs_bound,
+            sparse_neighbour_pairs_bound,
+        )
+
+        rng = np.random.default_rng(seed)
+        n = int(rng.integers(2, 300))
+        spread = [5.0, 100.0, 1000.0][seed % 3]
+        pts = (rng.random((n, 2)) * spread).astype(np.float32)
+        if seed % 2:
+            pts[: n // 3] = pts[0]  # coincident points
+        half_w, half_h = float(rng.uniform(1, 30)), float(rng.uniform(1, 15))
+        dense = neighbour_pairs_bound(pts, half_w, half_h)
+        assert dense == sparse_neighbour_pairs_bound(pts, half_w, half_h)
+        dx = np.abs(pts[:, None, 0] - pts[None, :, 0]) <= np.float32(half_w)
+        dy = np.abs(pts[:, None, 1] - pts[None, :, 1]) <= np.float32(half_h)
+        assert (dx & dy).sum() - n <= dense
+        assert _k.grid_neighbour_bound(pts, half_w, half_h, 0) == -1  # grid refused
 
     def test_2000_points(self):
         """2000 points a side: a dense T would have (Nl Nr)^2 = 1.6e13 entries; the sparse

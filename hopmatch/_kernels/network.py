@@ -201,23 +201,6 @@ def sort_groups(ni, nk, values):
 
 
 @jit
-def insertion_sort(a, lo, hi):
-    """Sort ``a[lo:hi]`` in place: by insertion when the run is short, else ``np.sort``."""
-    if hi - lo > SHORT_RUN:
-        ordered = np.sort(a[lo:hi])
-        for t in range(hi - lo):
-            a[lo + t] = ordered[t]
-        return
-    for t in range(lo + 1, hi):
-        key = a[t]
-        u = t - 1
-        while u >= lo and a[u] > key:
-            a[u + 1] = a[u]
-            u -= 1
-        a[u + 1] = key
-
-
-@jit
 def neighbour_lists(points, half_w, half_h):
     """CSR lists of the other points j with ``|xj - xi| <= half_w`` and ``|yj - yi| <= half_h``
     (differences in float32, as the points are stored).
@@ -226,6 +209,11 @@ def neighbour_lists(points, half_w, half_h):
     until there are at most ~4 cells per point), so every neighbour lies in the 3 x 3 cells
     around a point and the cost grows with the number of neighbours, not with N squared.
     Returns ``(offsets, indices)``; each list is sorted by index.
+
+    The lists are gathered cell by cell, so each comes out as a few sorted runs; rather than
+    sorting every list, they are transposed (:func:`transposed_lists`): the relation is
+    symmetric (``|a - b| == |b - a|`` exactly in float32), so the transpose holds the same
+    lists, each in increasing order.
     """
     n = points.shape[0]
     offsets = np.zeros(n + 1, dtype=np.int64)
@@ -282,10 +270,67 @@ def neighbour_lists(points, half_w, half_h):
                 indices[p] = members[t]
                 p += ((members[t] != i) & (abs(sx[t] - xi) <= half_w)
                       & (abs(sy[t] - yi) <= half_h))
-        insertion_sort(indices, offsets[i], p)
         offsets[i + 1] = p
-    indices = indices[:p].copy()
-    return offsets, indices
+    return offsets, transposed_lists(offsets, indices)
+
+
+@jit
+def transposed_lists(offsets, indices):
+    """The transpose of CSR lists of a relation on ``n`` points (``indices`` may be longer
+    than ``offsets[n]``): list i of the result holds every j whose list holds i, in
+    increasing j. For a symmetric relation the lists are the same (same offsets), sorted."""
+    n = offsets.shape[0] - 1
+    fill = offsets[:-1].copy()
+    out = np.empty(offsets[n], dtype=np.int32)
+    for j in range(n):
+        for t in range(offsets[j], offsets[j + 1]):
+            i = indices[t]
+            out[fill[i]] = j
+            fill[i] += 1
+    return out
+
+
+@jit
+def grid_neighbour_bound(points, cw, ch, max_cells):
+    """An upper bound on the ordered neighbour pairs of ``points``: every neighbour of a
+    point lies in the 3 x 3 cells of ``cw x ch`` around its own, so the bound is
+    ``sum_points (points in those cells) - N``. Counted on a dense grid of cells; returns -1
+    when that grid would have more than ``max_cells`` cells (the caller counts sparsely)."""
+    n = points.shape[0]
+    if n < 2:
+        return 0
+    xmin = np.inf
+    ymin = np.inf
+    xmax = -np.inf
+    ymax = -np.inf
+    for i in range(n):
+        x = np.float64(points[i, 0])
+        y = np.float64(points[i, 1])
+        xmin = min(xmin, x)
+        xmax = max(xmax, x)
+        ymin = min(ymin, y)
+        ymax = max(ymax, y)
+    ncx = np.floor((xmax - xmin) / cw) + 3.0  # a ring of empty cells around the points
+    ncy = np.floor((ymax - ymin) / ch) + 3.0
+    if ncx * ncy > max_cells:
+        return -1
+    nx = np.int64(ncx)
+    counts = np.zeros((np.int64(ncy), nx), dtype=np.int64)
+    for i in range(n):
+        cx = np.int64(np.floor((np.float64(points[i, 0]) - xmin) / cw)) + 1
+        cy = np.int64(np.floor((np.float64(points[i, 1]) - ymin) / ch)) + 1
+        counts[cy, cx] += 1
+    total = 0
+    for cy in range(1, counts.shape[0] - 1):
+        for cx in range(1, nx - 1):
+            c = counts[cy, cx]
+            if c:
+                around = 0
+                for dy in range(-1, 2):
+                    for dx in range(-1, 2):
+                        around += counts[cy + dy, cx + dx]
+                total += c * around
+    return total - n
 
 
 # --------------------------------------------------------------------------------------
@@ -336,6 +381,25 @@ def normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, eps, gate):
             s += abs(np.float64(a[t]) - np.float64(b[t]))
         out[p] = (s / max(dim, 1)) / norm
     return out
+
+
+@jit
+def rows_zero_mean(desc, rows, rel_tol, abs_tol):
+    """Whether every row ``desc[rows[t]]`` has ``|mean| <= rel_tol * mean |x| + abs_tol``
+    (float64 sums): the zero-mean test of windows (eqs. 8-9) that ``is_window_descriptor``
+    applies. Stops at the first row that fails."""
+    dim = desc.shape[1]
+    for t in range(rows.shape[0]):
+        a = desc[rows[t]]
+        s = 0.0
+        m = 0.0
+        for u in range(dim):
+            x = np.float64(a[u])
+            s += x
+            m += abs(x)
+        if not abs(s / dim) <= rel_tol * (m / dim) + abs_tol:
+            return False
+    return True
 
 
 @jit
@@ -399,30 +463,21 @@ def compatibility(x, theta, slope):
 
 
 @jit
-def count_interactions(ni, nk, start, nb_off, nb_idx):
-    """Number of ordered pairs of neurons ((i, k), (j, l)) with j a neighbour of i, l != k."""
-    total = 0
-    for p in range(ni.shape[0]):
-        i = ni[p]
-        k = nk[p]
-        for t in range(nb_off[i], nb_off[i + 1]):
-            j = nb_idx[t]
-            for q in range(start[j], start[j + 1]):
-                if nk[q] != k:
-                    total += 1
-    return total
-
-
-@jit
-def fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, sim, theta, slope, n_inter):
+def fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, sim, theta, slope,
+                      max_interactions):
     """CSR interactions: for neuron (i, k), every (j, l) of i's neighbours j with l != k and
     weight ``C_ik,jl`` (eq. 5) of ``X = |d_ik - d_jl| + |D_ij - D_kl| + s_ik + s_jl``
     (eq. 10), with d the Euclidean disparity of eq. 6 and s the weighted similarity term.
+
+    Returns ``(off, idx, w, n)``, n the number of interactions. The output grows by doubling
+    up to ``max_interactions`` entries; past that the interactions are only counted:
+    ``n > max_interactions`` then says so, and ``idx``/``w`` are empty.
     """
     n = ni.shape[0]
     off = np.zeros(n + 1, dtype=np.int64)
-    idx = np.empty(n_inter, dtype=np.int32)
-    w = np.empty(n_inter, dtype=np.float32)
+    cap = min(max_interactions, 32 * n + 1024)
+    idx = np.empty(cap, dtype=np.int32)
+    w = np.empty(cap, dtype=np.float32)
     disparity = np.empty(n, dtype=np.float64)  # eq. 6, once per neuron
     for p in range(n):
         dx = np.float64(left[ni[p], 0]) - np.float64(right[nk[p], 0])
@@ -446,6 +501,13 @@ def fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, sim, theta, sl
                 l = nk[q]
                 if l == k:
                     continue
+                if e >= cap:
+                    if cap == max_interactions:  # over the budget: only count
+                        e += 1
+                        continue
+                    cap = min(2 * cap, max_interactions)
+                    idx = _grown(idx, e, cap)
+                    w = _grown(w, e, cap)
                 xl = np.float64(right[l, 0])
                 yl = np.float64(right[l, 1])
                 len_r = np.sqrt((xk - xl) ** 2 + (yk - yl) ** 2)
@@ -454,7 +516,9 @@ def fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, sim, theta, sl
                 w[e] = compatibility(x, theta, slope)
                 e += 1
         off[p + 1] = e
-    return off, idx, w
+    if e > max_interactions:
+        return off, np.empty(0, dtype=np.int32), np.empty(0, dtype=np.float32), e
+    return off, idx[:e], w[:e], e
 
 
 # --------------------------------------------------------------------------------------

@@ -25,6 +25,7 @@ from ..errors import (
     PairInfoError,
     UnrectifiedPairWarning,
 )
+from .._kernels import network as _k
 from .network import (
     NetworkResult,
     candidate_pairs,
@@ -108,12 +109,29 @@ def resolve_max_disparity(max_disparity, query_size, query_pts, train_pts) -> fl
 def neighbour_pairs_bound(points: np.ndarray, half_w: float, half_h: float) -> int:
     """An upper bound on the number of (ordered) neighbour pairs the network stores: points
     are bucketed in cells of ``half_w x half_h`` (as the kernel does), and every neighbour
-    of a point lies in the 3 x 3 cells around it. O(N log N) time, O(N) memory."""
+    of a point lies in the 3 x 3 cells around it. Counted on a dense grid in O(N + cells)
+    when it has at most ``8 N + 1024`` cells, else on the occupied cells in O(N log N)
+    (:func:`sparse_neighbour_pairs_bound`); O(N) memory either way."""
     n = len(points)
     if n < 2:
         return 0
-    cw = max(float(half_w) * (1.0 + 1e-6), 1e-3)
-    ch = max(float(half_h) * (1.0 + 1e-6), 1e-3)
+    cw, ch = _cell_size(half_w, half_h)
+    dense = _k.grid_neighbour_bound(np.ascontiguousarray(points, dtype=np.float32), cw, ch,
+                                    8 * n + 1024)
+    return int(dense) if dense >= 0 else sparse_neighbour_pairs_bound(points, half_w, half_h)
+
+
+def _cell_size(half_w: float, half_h: float) -> tuple[float, float]:
+    return max(float(half_w) * (1.0 + 1e-6), 1e-3), max(float(half_h) * (1.0 + 1e-6), 1e-3)
+
+
+def sparse_neighbour_pairs_bound(points: np.ndarray, half_w: float, half_h: float) -> int:
+    """:func:`neighbour_pairs_bound` counted on the occupied cells only (sorted cell keys),
+    for points spread over far more cells than there are points."""
+    n = len(points)
+    if n < 2:
+        return 0
+    cw, ch = _cell_size(half_w, half_h)
     pts = points.astype(np.float64)
     cx = np.floor((pts[:, 0] - pts[:, 0].min()) / cw).astype(np.int64) + 1
     cy = np.floor((pts[:, 1] - pts[:, 1].min()) / ch).astype(np.int64) + 1
@@ -246,9 +264,11 @@ class HopfieldMatcher(Configurable):
         return self._run(queryDescriptors, trainDescriptors, mask, record_energy)[0]
 
     def _run(self, queryDescriptors, trainDescriptors, mask=None,  # noqa: N803
-             record_energy: bool = False):
+             record_energy: bool = False, trusted: bool = False):
         """:meth:`run`, also returning the pair information it used (read once, so that a
-        concurrent ``setPairInfo`` cannot mix two pairs in one call)."""
+        concurrent ``setPairInfo`` cannot mix two pairs in one call). ``trusted``: the
+        descriptors are already float32 C-contiguous finite rows (``match_stereo`` made
+        them), so they are not checked again."""
         pair, fundamental = self._pair, self._fundamental
         if pair is None:
             raise PairInfoError(
@@ -256,8 +276,11 @@ class HopfieldMatcher(Configurable):
                 "trainImageSize) before matching"
             )
         q_pts, t_pts, q_size, t_size = pair
-        qd = as_descriptors(queryDescriptors, "queryDescriptors")
-        td = as_descriptors(trainDescriptors, "trainDescriptors")
+        if trusted:
+            qd, td = queryDescriptors, trainDescriptors
+        else:
+            qd = as_descriptors(queryDescriptors, "queryDescriptors")
+            td = as_descriptors(trainDescriptors, "trainDescriptors")
         if len(qd) != len(q_pts) or len(td) != len(t_pts):
             raise PairInfoError(
                 f"descriptor counts ({len(qd)} query, {len(td)} train) disagree with the "

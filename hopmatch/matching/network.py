@@ -146,17 +146,18 @@ def vertical_offsets(left, right, ni, nk, fundamental=None) -> np.ndarray:
         return np.where(norm > 0, num / norm, np.inf)
 
 
-def is_window_descriptor(desc: np.ndarray) -> bool:
+def is_window_descriptor(desc: np.ndarray, rows: np.ndarray | None = None) -> bool:
     """Whether rows look like the windows of eqs. 8-9: float, square length (s >= 3), and
-    zero-mean rows (as ``gradient_windows`` makes them; SIFT, KAZE... rows are not)."""
+    zero-mean rows (as ``gradient_windows`` makes them; SIFT, KAZE... rows are not).
+    ``rows``: test only these rows (all by default)."""
     if desc.dtype == np.uint8 or desc.ndim != 2 or len(desc) == 0:
         return False
     s = int(round(np.sqrt(desc.shape[1])))
     if s < 3 or s * s != desc.shape[1]:
         return False
-    mean = np.abs(desc.mean(axis=1, dtype=np.float64))
-    scale = np.abs(desc).mean(axis=1, dtype=np.float64)
-    return bool(np.all(mean <= 1e-3 * scale + 1e-9))
+    rows = np.arange(len(desc)) if rows is None else np.asarray(rows, dtype=np.int64)
+    return len(rows) > 0 and bool(_k.rows_zero_mean(np.ascontiguousarray(desc), rows,
+                                                    1e-3, 1e-9))
 
 
 def shift_minimal(desc_l: np.ndarray, desc_r: np.ndarray, qi: np.ndarray,
@@ -170,13 +171,13 @@ def shift_minimal(desc_l: np.ndarray, desc_r: np.ndarray, qi: np.ndarray,
     is rejected. Descriptors that are not windows (see :func:`is_window_descriptor`) pass
     unchanged.
     """
-    keep = np.ones(len(qi), dtype=bool)
-    if len(qi) == 0 or not (is_window_descriptor(desc_l[qi])
-                            and is_window_descriptor(desc_r[ti])):
-        return keep
+    qi = np.ascontiguousarray(qi, dtype=np.int64)
+    ti = np.ascontiguousarray(ti, dtype=np.int64)
+    if len(qi) == 0 or not (is_window_descriptor(desc_l, qi)
+                            and is_window_descriptor(desc_r, ti)):
+        return np.ones(len(qi), dtype=bool)
     s = int(round(np.sqrt(desc_l.shape[1])))
-    return _k.shift_minimal_windows(desc_l, desc_r, np.ascontiguousarray(qi, dtype=np.int64),
-                                    np.ascontiguousarray(ti, dtype=np.int64), s)
+    return _k.shift_minimal_windows(desc_l, desc_r, qi, ti, s)
 
 
 def neighbours_with_neurons(left, start, width, height):
@@ -231,16 +232,15 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
 
     nb_off, nb_idx = neighbours_with_neurons(left, start, p["neighbour_width"],
                                              p["neighbour_height"])
-    n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
+    off, idx, w, n_inter = _k.fill_interactions(
+        left, right, ni, nk, start, nb_off, nb_idx, p["similarity_weight"] * sim, p["theta"],
+        p["slope"], np.int64(min(p["max_interactions"], 2**62)))
     if n_inter > p["max_interactions"]:
         raise BudgetExceededError(
             f"the network would have {n_inter} interactions, more than max_interactions="
             f"{p['max_interactions']}; shrink neighbour_width/neighbour_height, narrow the "
             "disparity range, use fewer keypoints, or raise max_interactions"
         )
-    weighted = p["similarity_weight"] * sim
-    off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, weighted,
-                                       p["theta"], p["slope"], n_inter)
     v = np.zeros(len(ni), dtype=np.uint8)
     biases = ([p["initial_bias"]] if p["initial_bias"] is not None else []) + [p["input_bias"]]
     iterations, sweeps, traces = 0, 0, []

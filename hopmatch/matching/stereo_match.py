@@ -159,7 +159,8 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
             ImageSizeWarning, stacklevel=2)
         size_r = size_l  # warned once here; the matcher need not repeat it
     matcher.setPairInfo(pts_l, pts_r, size_l, size_r)
-    net = matcher._run(desc_l, desc_r, None, record_energy)[0]  # warnings: stacklevel 4 = our caller
+    # warnings: stacklevel 4 = our caller
+    net = matcher._run(desc_l, desc_r, None, record_energy, trusted=True)[0]
     t3 = time.perf_counter()
     return StereoMatchResult(
         points_left=pts_l, points_right=pts_r, responses_left=resp_l, responses_right=resp_r,
