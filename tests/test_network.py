@@ -86,9 +86,10 @@ def kernel_network(left, right, desc_l, desc_r, p):
     start = _starts(ni, len(left))
     nb_off, nb_idx = _k.neighbour_lists(left, np.float32(p["neighbour_width"] / 2),
                                         np.float32(p["neighbour_height"] / 2))
-    off, idx, w, n_inter = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx,
-                                                p["similarity_weight"] * sim, p["theta"],
-                                                p["slope"], np.int64(10**9))
+    n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
+    off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx,
+                                       p["similarity_weight"] * sim, p["theta"], p["slope"],
+                                       n_inter)
     return dict(ni=ni, nk=nk, sim=sim, start=start, nb_off=nb_off, nb_idx=nb_idx,
                 n_inter=n_inter, off=off, idx=idx, w=w)
 
@@ -138,11 +139,45 @@ class TestCandidates:
         left, right, _, _ = make_problem(5, 60, 70, integer=vmax == 0.0)
         ni, nk = candidate_pairs(left, right, 0.0, 20.0, vmax, 10**6)
         ui, uk = candidate_pairs(left, right, 0.0, 20.0, vmax, 10**6, sort=False)
-        assert np.array_equal(ui, ni) and len(ni) > 20
+        assert len(ni) > 20
         assert sorted(zip(ui.tolist(), uk.tolist())) == list(zip(ni.tolist(), nk.tolist()))
+        groups = [g for g, first in zip(ui.tolist(), np.r_[True, ui[1:] != ui[:-1]]) if first]
+        assert len(groups) == len(set(groups))  # each left point's pairs are contiguous
+        rows = np.floor(left[groups, 1])
+        assert (np.diff(rows) >= 0).all()  # visited row by row
         values = uk.astype(np.float64) * 10
-        _k.sort_groups(ui, uk, values)
-        assert np.array_equal(uk, nk) and np.array_equal(values, nk * 10.0)
+        gi, gk, gv = _k.group_by_left(ui, uk, values, len(left))
+        assert np.array_equal(gi, ni)
+        _k.sort_groups(gi, gk, gv)
+        assert np.array_equal(gk, nk) and np.array_equal(gv, nk * 10.0)
+
+    @pytest.mark.parametrize("spread", [False, True])
+    def test_row_order_and_band_index_fall_back_when_rows_spread(self, spread):
+        """Rows spread over far more values than there are points are not counted: the
+        visit order is the index order and the right points are sorted by NumPy instead;
+        the pairs are the same either way."""
+        from hopmatch.matching.network import _left_visit_order, _right_band_index
+
+        left, right, _, _ = make_problem(3, 50, 60)
+        if spread:
+            left[::7, 1] += 1e6
+            right[::7, 1] += 1e6
+        order, ok = _k.row_order(left, 4 * len(left) + 1024)
+        assert ok is not spread
+        visit = _left_visit_order(left)
+        assert sorted(visit.tolist()) == list(range(len(left)))
+        if spread:
+            assert np.array_equal(visit, np.arange(len(left)))
+        else:
+            assert np.array_equal(visit, order)
+            assert np.array_equal(visit, np.argsort(np.floor(left[:, 1]), kind="stable"))
+        assert _k.band_index(right, 4 * len(right) + 1024)[-1] is not spread
+        rows, row_start, r_order, rx, ry = _right_band_index(right)
+        want = sorted(range(len(right)), key=lambda k: (np.floor(right[k, 1]), right[k, 0], k))
+        assert r_order.tolist() == want
+        ni, nk = candidate_pairs(left, right, 0.0, 20.0, 2.0, 10**6)
+        assert list(zip(ni.tolist(), nk.tolist())) == naive.candidate_pairs(
+            left, right, 0.0, 20.0, 2.0)
 
     def test_right_points_ordered_by_row_then_x_then_index(self):
         from hopmatch.matching.network import _right_band_index
@@ -564,24 +599,6 @@ class TestSparsity:
         assert net["n_inter"] <= bound
         if p["similarity_gate"] is None and not p["max_candidates"]:
             assert (net["n_inter"], bound) == _brute_force_interactions(problem[0], problem[1], p)
-
-    def test_interactions_grow_and_count_past_the_budget(self):
-        """Crowded points give more than 32 interactions per neuron, so the CSR output
-        grows; a budget of exactly the count gives the same arrays, one less only counts."""
-        left, right, dl, dr = make_problem(5, 150, width=30.0, height=12.0)
-        p = params(max_disparity=15.0, max_vertical=3.0, similarity_gate=None)
-        net = kernel_network(left, right, dl, dr, p)
-        n_inter = net["n_inter"]
-        assert n_inter > 32 * len(net["ni"]) + 1024  # past the first allocation
-        args = (left, right, net["ni"], net["nk"], net["start"], net["nb_off"], net["nb_idx"],
-                p["similarity_weight"] * net["sim"], p["theta"], p["slope"])
-        off, idx, w, n = _k.fill_interactions(*args, np.int64(n_inter))
-        assert n == n_inter
-        np.testing.assert_array_equal(off, net["off"])
-        np.testing.assert_array_equal(idx, net["idx"])
-        np.testing.assert_array_equal(w, net["w"])
-        _, idx, w, n = _k.fill_interactions(*args, np.int64(n_inter - 1))
-        assert (n, len(idx), len(w)) == (n_inter, 0, 0)
 
     @pytest.mark.parametrize("seed", range(6))
     def test_neighbour_pairs_bound_dense_equals_sparse(self, seed):

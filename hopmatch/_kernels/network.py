@@ -62,11 +62,136 @@ def _grown(a, n, cap):
 
 
 @jit
-def band_candidates(left, row_values, row_start, order, rx, ry, dmin, dmax, vmax,
+def point_rows(points):
+    """``floor(y)`` of every (x, y) point as int64, and the smallest and largest of them."""
+    n = points.shape[0]
+    rows = np.empty(n, dtype=np.int64)
+    rmin = np.int64(0)
+    rmax = np.int64(0)
+    for i in range(n):
+        r = np.int64(np.floor(np.float64(points[i, 1])))
+        rows[i] = r
+        if i == 0 or r < rmin:
+            rmin = r
+        if i == 0 or r > rmax:
+            rmax = r
+    return rows, rmin, rmax
+
+
+@jit
+def row_order(points, max_span):
+    """The points ordered by row ``floor(y)`` (index order within a row), by a counting sort:
+    ``(order, ok)``. ``ok`` is False, and ``order`` empty, when the rows span more than
+    ``max_span`` values (the counts would not be O(N))."""
+    n = points.shape[0]
+    rows, rmin, rmax = point_rows(points)
+    if n == 0 or rmax - rmin + 1 > max_span:
+        return np.empty(0, dtype=np.int64), n == 0
+    span = rmax - rmin + 1
+    fill = np.zeros(span + 1, dtype=np.int64)
+    for i in range(n):
+        fill[rows[i] - rmin + 1] += 1
+    for r in range(span):
+        fill[r + 1] += fill[r]
+    order = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        order[fill[rows[i] - rmin]] = i
+        fill[rows[i] - rmin] += 1
+    return order, True
+
+
+@jit
+def band_index(points, max_span):
+    """What :func:`band_candidates` needs of the right points: ``(row_values, row_start,
+    order, rx, ry, ok)`` -- the distinct rows ``floor(y)`` (increasing), each row's offsets
+    in ``order``, the points row by row with x increasing (ties: index increasing), and
+    their coordinates in that order.
+
+    Rows by :func:`row_order`; within a row, one unique int64 key per point, the float32 x
+    made monotonic as an unsigned 32-bit number above the 31-bit index (indices < 2**31),
+    sorted by insertion (short rows) or ``np.argsort``. ``ok`` is False when
+    :func:`row_order` refuses the row span (the caller sorts otherwise).
+    """
+    n = points.shape[0]
+    order, ok = row_order(points, max_span)
+    empty_i = np.empty(0, dtype=np.int64)
+    empty_f = np.empty(0, dtype=np.float32)
+    if not ok:
+        return empty_i, empty_i, empty_i, empty_f, empty_f, False
+    key = np.empty(n, dtype=np.int64)
+    rows = np.empty(n, dtype=np.int64)
+    for t in range(n):
+        i = order[t]
+        rows[t] = np.int64(np.floor(np.float64(points[i, 1])))
+        bits = np.int64(np.float32(points[i, 0]).view(np.int32))
+        if bits < 0:
+            bits = -bits - 2**31 - 1
+        key[t] = ((bits + 2**31) << 31) | i
+    row_values = np.empty(n, dtype=np.int64)
+    row_start = np.empty(n + 1, dtype=np.int64)
+    nrows = 0
+    lo = 0
+    while lo < n:
+        hi = lo + 1
+        while hi < n and rows[hi] == rows[lo]:
+            hi += 1
+        row_values[nrows] = rows[lo]
+        row_start[nrows] = lo
+        nrows += 1
+        if hi - lo > SHORT_RUN:  # distinct keys: any sort will do
+            ordered = np.sort(key[lo:hi])
+            for t in range(hi - lo):
+                key[lo + t] = ordered[t]
+        else:
+            for t in range(lo + 1, hi):
+                kt = key[t]
+                u = t - 1
+                while u >= lo and key[u] > kt:
+                    key[u + 1] = key[u]
+                    u -= 1
+                key[u + 1] = kt
+        lo = hi
+    row_start[nrows] = n
+    rx = np.empty(n, dtype=np.float32)
+    ry = np.empty(n, dtype=np.float32)
+    for t in range(n):
+        i = key[t] & (2**31 - 1)
+        order[t] = i
+        rx[t] = points[i, 0]
+        ry[t] = points[i, 1]
+    return row_values[:nrows].copy(), row_start[:nrows + 1].copy(), order, rx, ry, True
+
+
+@jit
+def group_by_left(ni, nk, values, n_left):
+    """Pairs grouped by left point in any order, regrouped by i increasing (a stable
+    counting sort: each group keeps its order). Returns new ``(ni, nk, values)``."""
+    n = ni.shape[0]
+    fill = np.zeros(n_left + 1, dtype=np.int64)
+    for t in range(n):
+        fill[ni[t] + 1] += 1
+    for i in range(n_left):
+        fill[i + 1] += fill[i]
+    oi = np.empty(n, dtype=ni.dtype)
+    ok = np.empty(n, dtype=nk.dtype)
+    ov = np.empty(n, dtype=values.dtype)
+    for t in range(n):
+        w = fill[ni[t]]
+        oi[w] = ni[t]
+        ok[w] = nk[t]
+        ov[w] = values[t]
+        fill[ni[t]] += 1
+    return oi, ok, ov
+
+
+@jit
+def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dmax, vmax,
                     max_neurons):
     """The pairs (i, k) with ``dmin <= xl - xr <= dmax`` and ``yl - vmax <= yr <= yl + vmax``
     (float32 arithmetic, as the points are stored), as ``(ni, nk, n)``: grouped by left point
-    i increasing, each group in row order (:func:`sort_groups` sorts them by k).
+    in the order ``visit`` lists them, each group in row order (:func:`group_by_left` and
+    :func:`sort_groups` sort them by (i, k)). Visiting the left points row by row
+    (:func:`row_order`) reads the right points' rows while they are still in cache.
 
     ``row_values`` are the distinct rows ``floor(y)`` of the right points (increasing),
     ``order`` the right points row by row with x increasing, ``row_start`` each row's
@@ -80,7 +205,8 @@ def band_candidates(left, row_values, row_start, order, rx, ry, dmin, dmax, vmax
     ni = np.empty(cap, dtype=np.int32)
     nk = np.empty(cap, dtype=np.int32)
     p = 0
-    for i in range(left.shape[0]):
+    for q in range(visit.shape[0]):
+        i = visit[q]
         xl = left[i, 0]
         yl = left[i, 1]
         y_lo = yl - vmax
@@ -463,21 +589,30 @@ def compatibility(x, theta, slope):
 
 
 @jit
-def fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, sim, theta, slope,
-                      max_interactions):
+def count_interactions(ni, nk, start, nb_off, nb_idx):
+    """Number of ordered pairs of neurons ((i, k), (j, l)) with j a neighbour of i, l != k."""
+    total = 0
+    for p in range(ni.shape[0]):
+        i = ni[p]
+        k = nk[p]
+        for t in range(nb_off[i], nb_off[i + 1]):
+            j = nb_idx[t]
+            for q in range(start[j], start[j + 1]):
+                if nk[q] != k:
+                    total += 1
+    return total
+
+
+@jit
+def fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, sim, theta, slope, n_inter):
     """CSR interactions: for neuron (i, k), every (j, l) of i's neighbours j with l != k and
     weight ``C_ik,jl`` (eq. 5) of ``X = |d_ik - d_jl| + |D_ij - D_kl| + s_ik + s_jl``
     (eq. 10), with d the Euclidean disparity of eq. 6 and s the weighted similarity term.
-
-    Returns ``(off, idx, w, n)``, n the number of interactions. The output grows by doubling
-    up to ``max_interactions`` entries; past that the interactions are only counted:
-    ``n > max_interactions`` then says so, and ``idx``/``w`` are empty.
     """
     n = ni.shape[0]
     off = np.zeros(n + 1, dtype=np.int64)
-    cap = min(max_interactions, 32 * n + 1024)
-    idx = np.empty(cap, dtype=np.int32)
-    w = np.empty(cap, dtype=np.float32)
+    idx = np.empty(n_inter, dtype=np.int32)
+    w = np.empty(n_inter, dtype=np.float32)
     disparity = np.empty(n, dtype=np.float64)  # eq. 6, once per neuron
     for p in range(n):
         dx = np.float64(left[ni[p], 0]) - np.float64(right[nk[p], 0])
@@ -501,13 +636,6 @@ def fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, sim, theta, sl
                 l = nk[q]
                 if l == k:
                     continue
-                if e >= cap:
-                    if cap == max_interactions:  # over the budget: only count
-                        e += 1
-                        continue
-                    cap = min(2 * cap, max_interactions)
-                    idx = _grown(idx, e, cap)
-                    w = _grown(w, e, cap)
                 xl = np.float64(right[l, 0])
                 yl = np.float64(right[l, 1])
                 len_r = np.sqrt((xk - xl) ** 2 + (yk - yl) ** 2)
@@ -516,9 +644,7 @@ def fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, sim, theta, sl
                 w[e] = compatibility(x, theta, slope)
                 e += 1
         off[p + 1] = e
-    if e > max_interactions:
-        return off, np.empty(0, dtype=np.int32), np.empty(0, dtype=np.float32), e
-    return off, idx[:e], w[:e], e
+    return off, idx, w
 
 
 # --------------------------------------------------------------------------------------

@@ -81,13 +81,25 @@ def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
                                     np.inf if gate is None else float(gate))
 
 
+def _row_span_limit(n: int) -> int:
+    """Largest row span the counting sorts of the candidate search accept for n points."""
+    return 4 * n + 1024
+
+
 def _right_band_index(right):
     """What the rectified candidate search (``band_candidates``) needs of the right points:
     the distinct rows ``floor(y)``, the points row by row with x increasing (ties: index
-    increasing), each row's offsets in that order, and the coordinates in that order."""
+    increasing), each row's offsets in that order, and the coordinates in that order.
+
+    Counting sort by row (``_k.band_index``); for rows spread over more than
+    :func:`_row_span_limit` values, one stable NumPy sort of a (row, x) int64 key instead.
+    """
+    *index, ok = _k.band_index(right, _row_span_limit(len(right)))
+    if ok:
+        return tuple(index)
     rows = np.floor(right[:, 1].astype(np.float64)).astype(np.int64)
-    # one stable sort of (row, x): x's float32 bits made monotonic, as an unsigned 32-bit
-    # number, below the row (coordinates are validated to |v| < 2**30)
+    # x's float32 bits made monotonic, as an unsigned 32-bit number, below the row
+    # (coordinates are validated to |v| < 2**30)
     bits = np.ascontiguousarray(right[:, 0], dtype=np.float32).view(np.int32).astype(np.int64)
     x_key = np.where(bits < 0, -bits - 2**31 - 1, bits) + 2**31
     key = ((rows - (rows.min() if len(rows) else 0)) << 32) | x_key
@@ -100,6 +112,13 @@ def _right_band_index(right):
             np.ascontiguousarray(right[order, 0]), np.ascontiguousarray(right[order, 1]))
 
 
+def _left_visit_order(left) -> np.ndarray:
+    """The order the candidate search visits the left points in: row by row (cache-friendly,
+    ``_k.row_order``), or index order when the rows are spread too widely to count."""
+    order, ok = _k.row_order(left, _row_span_limit(len(left)))
+    return order if ok else np.arange(len(left), dtype=np.int64)
+
+
 def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max_neurons,
                     fundamental=None, *, sort=True):
     """Neurons: pairs with ``min_disparity <= xl - xr <= max_disparity`` and
@@ -109,13 +128,15 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
     the right point's distance to ``F (xl, yl, 1)`` is at most ``max_vertical``.
     Raises :class:`BudgetExceededError` before allocating more than ``max_neurons``.
 
-    The pairs are sorted by (i, k); with ``sort=False`` they are only grouped by i (sort
-    what is left after gating with ``sort_groups``: cheaper).
+    The pairs are sorted by (i, k); with ``sort=False`` they are only grouped by left point
+    (in the order the search visited them): sort what is left after gating with
+    ``_k.group_by_left`` then ``_k.sort_groups``, which is cheaper.
     """
     band = (np.float32(min_disparity), np.float32(max_disparity), np.float32(max_vertical))
     budget = np.int64(min(max_neurons, 2**62))
     if fundamental is None:
-        ni, nk, n = _k.band_candidates(left, *_right_band_index(right), *band, budget)
+        ni, nk, n = _k.band_candidates(left, _left_visit_order(left),
+                                       *_right_band_index(right), *band, budget)
     else:
         order = np.argsort(right[:, 0], kind="stable")
         ni, nk, n = _k.epipolar_candidates(
@@ -128,6 +149,7 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
             "max_vertical, use fewer keypoints, or raise max_neurons"
         )
     if sort:
+        ni, nk, _ = _k.group_by_left(ni, nk, np.empty(len(ni)), len(left))
         _k.sort_groups(ni, nk, np.empty(len(ni)))
     return ni, nk
 
@@ -220,6 +242,7 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
     if gate is not None:
         keep = sim <= gate
         ni, nk, sim = ni[keep], nk[keep], sim[keep]
+    ni, nk, sim = _k.group_by_left(ni, nk, sim, nl)
     _k.sort_groups(ni, nk, sim)
     if p["max_candidates"] and len(ni):
         order = np.lexsort((sim, ni))
@@ -232,15 +255,16 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
 
     nb_off, nb_idx = neighbours_with_neurons(left, start, p["neighbour_width"],
                                              p["neighbour_height"])
-    off, idx, w, n_inter = _k.fill_interactions(
-        left, right, ni, nk, start, nb_off, nb_idx, p["similarity_weight"] * sim, p["theta"],
-        p["slope"], np.int64(min(p["max_interactions"], 2**62)))
+    n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
     if n_inter > p["max_interactions"]:
         raise BudgetExceededError(
             f"the network would have {n_inter} interactions, more than max_interactions="
             f"{p['max_interactions']}; shrink neighbour_width/neighbour_height, narrow the "
             "disparity range, use fewer keypoints, or raise max_interactions"
         )
+    weighted = p["similarity_weight"] * sim
+    off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, weighted,
+                                       p["theta"], p["slope"], n_inter)
     v = np.zeros(len(ni), dtype=np.uint8)
     biases = ([p["initial_bias"]] if p["initial_bias"] is not None else []) + [p["input_bias"]]
     iterations, sweeps, traces = 0, 0, []
