@@ -308,6 +308,33 @@ class TestSimilarity:
         assert (gated[~within] > gate).all()
         assert np.isinf(gated[~within]).any()                    # some skipped by the bound
 
+    @pytest.mark.parametrize("gate", [0.0, 0.3, 0.9, np.inf])
+    def test_band_leaves_out_exactly_the_pairs_the_contrast_bound_rejects(self, gate):
+        """``contrast_gate`` drops, before they are written, the band pairs whose contrasts
+        alone put them past the gate: what is left is every pair whose similarity can be
+        within the gate, and the budget still counts the whole band."""
+        from hopmatch.matching.network import window_contrasts
+
+        left, right, dl, dr = make_problem(6, 80, 90)
+        dr[::5] *= 3.0  # contrast changes
+        contrasts = window_contrasts(dl, dr)
+        ni, nk = candidate_pairs(left, right, 0.0, 20.0, 2.0, 10**6)
+        gi, gk = candidate_pairs(left, right, 0.0, 20.0, 2.0, 10**6,
+                                 contrast_gate=(contrasts, gate))
+        sim = similarity_distance(dl, dr, ni, nk, gate)
+        plain = set(zip(ni.tolist(), nk.tolist()))
+        kept = set(zip(gi.tolist(), gk.tolist()))
+        assert kept <= plain and len(gi) == len(kept)
+        assert {pair for pair, v in zip(zip(ni.tolist(), nk.tolist()), sim) if v <= gate} \
+            <= kept
+        assert kept == {pair for pair, v in zip(zip(ni.tolist(), nk.tolist()), sim)
+                        if np.isfinite(v) or gate == np.inf}
+        if 0.0 < gate < np.inf:
+            assert 0 < len(kept) < len(plain)
+        with pytest.raises(BudgetExceededError, match=f"would have {len(ni)} neurons"):
+            candidate_pairs(left, right, 0.0, 20.0, 2.0, len(ni) - 1,
+                            contrast_gate=(contrasts, gate))
+
     @pytest.mark.parametrize("size", [3, 5, 9])
     def test_shift_minimal_equals_reference(self, size):
         rng = np.random.default_rng(size)

@@ -186,7 +186,7 @@ def group_by_left(ni, nk, values, n_left):
 
 @jit
 def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dmax, vmax,
-                    max_neurons):
+                    max_neurons, scale_l, scale_r_sorted, gate, eps):
     """The pairs (i, k) with ``dmin <= xl - xr <= dmax`` and ``yl - vmax <= yr <= yl + vmax``
     (float32 arithmetic, as the points are stored), as ``(ni, nk, n)``: grouped by left point
     in the order ``visit`` lists them, each group in row order (:func:`group_by_left` and
@@ -195,20 +195,29 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
 
     ``row_values`` are the distinct rows ``floor(y)`` of the right points (increasing),
     ``order`` the right points row by row with x increasing, ``row_start`` each row's
-    offsets in it, and ``rx, ry`` the right points' coordinates in that order. Only the rows ``floor(yl - vmax) .. floor(yl + vmax)``
-    are visited, and in each row only the x range of the disparity band (binary search, one
-    pixel of slack for rounding): the cost grows with the number of candidates, not with
-    ``Nl x Nr``. The output grows by doubling up to ``max_neurons`` entries; past that the
-    pairs are only counted: ``n > max_neurons`` then says so, and ``ni``/``nk`` are empty.
+    offsets in it, and ``rx, ry`` the right points' coordinates in that order. Only the
+    rows ``floor(yl - vmax) .. floor(yl + vmax)`` are visited, and in each row only the x
+    range of the disparity band (binary search, one pixel of slack for rounding): the cost
+    grows with the number of candidates, not with ``Nl x Nr``.
+
+    Pairs whose window contrasts alone put them past the similarity ``gate`` (eqs. 7-9:
+    ``|s_i - s_k| > gate (0.5 (s_i + s_k) + eps)``, the lower bound
+    :func:`normalised_difference` skips) are not written; ``scale_r_sorted`` is
+    ``scale_r[order]``. Pass zero scales and ``gate = inf`` to keep every pair. ``n``
+    counts every pair of the band all the same (the ``max_neurons`` budget is on the band).
+    The output grows by doubling up to ``max_neurons`` entries; past that the pairs are only
+    counted: ``n > max_neurons`` then says so, and ``ni``/``nk`` are empty.
     """
     cap = min(max_neurons, 8 * left.shape[0] + 1024)
     ni = np.empty(cap, dtype=np.int32)
     nk = np.empty(cap, dtype=np.int32)
-    p = 0
+    p = 0  # pairs written
+    n = 0  # pairs in the band
     for q in range(visit.shape[0]):
         i = visit[q]
         xl = left[i, 0]
         yl = left[i, 1]
+        sl = scale_l[i]
         y_lo = yl - vmax
         y_hi = yl + vmax
         r_lo = _lower_bound(row_values, 0, row_values.shape[0],
@@ -228,20 +237,26 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
             if need <= cap:  # room for every pair of the segment: write without branches
                 for t in range(t0, t1):
                     d = xl - rx[t]
+                    inside = (d >= dmin) & (d <= dmax) & (ry[t] >= y_lo) & (ry[t] <= y_hi)
+                    norm = 0.5 * (sl + scale_r_sorted[t]) + eps
                     ni[p] = i
                     nk[p] = order[t]
-                    p += (d >= dmin) & (d <= dmax) & (ry[t] >= y_lo) & (ry[t] <= y_hi)
+                    n += inside
+                    p += inside & (abs(sl - scale_r_sorted[t]) <= gate * norm * (1.0 + 1e-6))
             else:  # near the budget: write while there is room, then only count
                 for t in range(t0, t1):
                     d = xl - rx[t]
                     if d >= dmin and d <= dmax and ry[t] >= y_lo and ry[t] <= y_hi:
-                        if p < cap:
-                            ni[p] = i
-                            nk[p] = order[t]
-                        p += 1
-    if p > max_neurons:
-        return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), p
-    return ni[:p].copy(), nk[:p].copy(), p
+                        n += 1
+                        norm = 0.5 * (sl + scale_r_sorted[t]) + eps
+                        if abs(sl - scale_r_sorted[t]) <= gate * norm * (1.0 + 1e-6):
+                            if p < cap:
+                                ni[p] = i
+                                nk[p] = order[t]
+                            p += 1
+    if n > max_neurons:
+        return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), n
+    return ni[:p].copy(), nk[:p].copy(), n
 
 
 @jit

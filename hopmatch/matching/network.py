@@ -61,8 +61,17 @@ class NetworkResult:
     energy_trace: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
+def window_contrasts(desc_l: np.ndarray, desc_r: np.ndarray):
+    """``(s_l, s_r)``: each float descriptor row's ``mean |row|``, the contrast that
+    normalises eq. 7 (:func:`similarity_distance`); None for binary (uint8) descriptors."""
+    if desc_l.dtype == np.uint8:
+        return None
+    return _k.row_mean_abs(desc_l), _k.row_mean_abs(desc_r)
+
+
 def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
-                        nk: np.ndarray, gate: float | None = None) -> np.ndarray:
+                        nk: np.ndarray, gate: float | None = None,
+                        contrasts=None) -> np.ndarray:
     """Normalised similarity distance of each candidate pair (eqs. 7-9).
 
     Float descriptors: ``M_ik`` of eq. 7 (mean absolute difference of the mean-subtracted
@@ -73,11 +82,12 @@ def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
 
     With a ``gate``, float pairs whose distance certainly exceeds it (their contrasts
     differ too much) are given ``inf`` without computing it; the others are exact.
+    ``contrasts``: :func:`window_contrasts` of the descriptors, if already computed.
     """
     if desc_l.dtype == np.uint8:
         return _k.hamming_fraction(desc_l, desc_r, ni, nk)
-    return _k.normalised_difference(desc_l, desc_r, ni, nk, _k.row_mean_abs(desc_l),
-                                    _k.row_mean_abs(desc_r), _EPS,
+    scale_l, scale_r = contrasts if contrasts is not None else window_contrasts(desc_l, desc_r)
+    return _k.normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, _EPS,
                                     np.inf if gate is None else float(gate))
 
 
@@ -120,7 +130,7 @@ def _left_visit_order(left) -> np.ndarray:
 
 
 def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max_neurons,
-                    fundamental=None, *, sort=True):
+                    fundamental=None, *, sort=True, contrast_gate=None):
     """Neurons: pairs with ``min_disparity <= xl - xr <= max_disparity`` and
     ``|yl - yr| <= max_vertical`` (SPEC section 3's search window), as ``(ni, nk)``.
 
@@ -131,12 +141,23 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
     The pairs are sorted by (i, k); with ``sort=False`` they are only grouped by left point
     (in the order the search visited them): sort what is left after gating with
     ``_k.group_by_left`` then ``_k.sort_groups``, which is cheaper.
+
+    ``contrast_gate=(contrasts, gate)`` (rectified search only; ``contrasts`` from
+    :func:`window_contrasts`) leaves out the pairs :func:`similarity_distance` would put past
+    ``gate`` on their contrasts alone; the budget still counts them.
     """
     band = (np.float32(min_disparity), np.float32(max_disparity), np.float32(max_vertical))
     budget = np.int64(min(max_neurons, 2**62))
     if fundamental is None:
-        ni, nk, n = _k.band_candidates(left, _left_visit_order(left),
-                                       *_right_band_index(right), *band, budget)
+        index = _right_band_index(right)
+        if contrast_gate is None:
+            scale_l, scale_r, gate = np.zeros(len(left)), np.zeros(len(right)), np.inf
+        else:
+            (scale_l, scale_r), gate = contrast_gate
+            scale_r = scale_r[index[2]]
+        ni, nk, n = _k.band_candidates(left, _left_visit_order(left), *index, *band, budget,
+                                       scale_l, np.ascontiguousarray(scale_r, np.float64),
+                                       float(gate), _EPS)
     else:
         order = np.argsort(right[:, 0], kind="stable")
         ni, nk, n = _k.epipolar_candidates(
@@ -232,13 +253,17 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
     (False forbids a neuron). See :class:`hopmatch.HopfieldMatcher` for the parameters.
     """
     nl, nr = len(left), len(right)
-    ni, nk = candidate_pairs(left, right, p["min_disparity"], p["max_disparity"],
-                             p["max_vertical"], p["max_neurons"], fundamental, sort=False)
+    gate = p["similarity_gate"]
+    contrasts = window_contrasts(desc_l, desc_r)
+    ni, nk = candidate_pairs(
+        left, right, p["min_disparity"], p["max_disparity"], p["max_vertical"],
+        p["max_neurons"], fundamental, sort=False,
+        contrast_gate=None if contrasts is None or gate is None else (contrasts, gate))
     if mask is not None and len(ni):
         keep = mask[ni, nk]
         ni, nk = ni[keep], nk[keep]
-    gate = p["similarity_gate"]
-    sim = similarity_distance(desc_l, desc_r, ni, nk, gate) if len(ni) else np.zeros(0)
+    sim = (similarity_distance(desc_l, desc_r, ni, nk, gate, contrasts) if len(ni)
+           else np.zeros(0))
     if gate is not None:
         keep = sim <= gate
         ni, nk, sim = ni[keep], nk[keep], sim[keep]
