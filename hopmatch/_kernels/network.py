@@ -213,6 +213,10 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
     nk = np.empty(cap, dtype=np.int32)
     p = 0  # pairs written
     n = 0  # pairs in the band
+    last_lo = np.int64(0)
+    last_hi = np.int64(-1)
+    r_lo = 0
+    r_hi = 0
     for q in range(visit.shape[0]):
         i = visit[q]
         xl = left[i, 0]
@@ -220,10 +224,13 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
         sl = scale_l[i]
         y_lo = yl - vmax
         y_hi = yl + vmax
-        r_lo = _lower_bound(row_values, 0, row_values.shape[0],
-                            np.int64(np.floor(np.float64(y_lo))))
-        r_hi = _upper_bound(row_values, r_lo, row_values.shape[0],
-                            np.int64(np.floor(np.float64(y_hi))))
+        row_lo = np.int64(np.floor(np.float64(y_lo)))
+        row_hi = np.int64(np.floor(np.float64(y_hi)))
+        if row_lo != last_lo or row_hi != last_hi:  # a new row range (visits go row by row)
+            r_lo = _lower_bound(row_values, 0, row_values.shape[0], row_lo)
+            r_hi = _upper_bound(row_values, r_lo, row_values.shape[0], row_hi)
+            last_lo = row_lo
+            last_hi = row_hi
         x_lo = np.float64(xl) - np.float64(dmax) - 1.0
         x_hi = np.float64(xl) - np.float64(dmin) + 1.0
         for r in range(r_lo, r_hi):
