@@ -150,6 +150,28 @@ def strict_maxima(v, radius, margin, threshold):
     return np.array(found, dtype=np.int64).reshape(-1, 2)
 
 
+def quadratic_offsets(v, yx):
+    """Sub-pixel offsets (dx, dy), float32 (N, 2), of the points (y, x) of ``yx``: the vertex
+    of the parabola through V at p - 1, p, p + 1 along each axis (neighbours clamped to the
+    image), 0 where ``V(p-1) - 2 V(p) + V(p+1) >= 0``, clipped to half a pixel. The NumPy
+    formula the library used before it moved into the kernel ``strict_maxima``; the point is
+    ``float32(x, y) + offsets``, added in float32."""
+    v = np.asarray(v, dtype=np.float32)
+    y, x = yx[:, 0], yx[:, 1]
+    h, w = v.shape
+    xm, xp = np.clip(x - 1, 0, w - 1), np.clip(x + 1, 0, w - 1)
+    ym, yp = np.clip(y - 1, 0, h - 1), np.clip(y + 1, 0, h - 1)
+    c = v[y, x].astype(np.float64)
+    out = np.zeros((len(yx), 2), np.float32)
+    for axis, (lo, hi) in enumerate(((v[y, xm], v[y, xp]), (v[ym, x], v[yp, x]))):
+        lo, hi = lo.astype(np.float64), hi.astype(np.float64)
+        den = lo - 2.0 * c + hi
+        with np.errstate(divide="ignore", invalid="ignore"):
+            off = np.where(den < 0, 0.5 * (lo - hi) / den, 0.0)
+        out[:, axis] = np.clip(off, -0.5, 0.5)
+    return out
+
+
 def gradient_windows(g, pts, size):
     """Eqs. 8-9: ``V_i(x) = G(x) - mean_{W_i}(G)``, the window in raster order, float64
     (N, size * size). G is sampled bilinearly at non-integer centres (the textbook

@@ -10,6 +10,7 @@ import naive
 from hopmatch._kernels import moravec as _k
 from hopmatch.errors import InvalidArgumentError, InvalidTypeError
 from hopmatch.feature import gradient_windows, moravec_points, moravec_response
+from hopmatch.feature.moravec import quantisation_step, quantise
 
 
 def _quantised(img):
@@ -35,7 +36,7 @@ def _random_image(rng, shape, dtype):
 
 class TestMoravecResponse:
     @pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
-    @pytest.mark.parametrize("window_size", [1, 3, 5, 7])
+    @pytest.mark.parametrize("window_size", [1, 3, 5, 7, 9])
     def test_bit_identical_to_reference(self, dtype, window_size):
         rng = np.random.default_rng(window_size * 7 + np.dtype(dtype).itemsize)
         img = _random_image(rng, (19, 23), dtype)
@@ -99,10 +100,49 @@ class TestMoravecResponse:
         g = np.ascontiguousarray(rng.uniform(0, 1, (16, 13)).astype(np.float32))
         gq, step = naive.quantise(g)
         assert np.abs(gq).max() <= 2**19 and np.abs(gq).max() > 2**18
+        on_grid = (gq * step).astype(np.float32)
         for radius in (0, 1, 2, 3):
-            got = _k.moravec_response(gq, radius, step * step)
-            want = naive.moravec_response((gq * step).astype(np.float32), 2 * radius + 1)
+            # the kernel quantises G itself: on_grid * (1 / step) is gq again
+            got = _k.moravec_response(on_grid, 1.0 / step, radius, step * step)
+            want = naive.moravec_response(on_grid, 2 * radius + 1)
             assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+            # quantising inside the kernel is the rule of quantise(), bit for bit
+            factor, scale = quantisation_step(g)
+            assert scale == factor**-2
+            got = _k.moravec_response(g, factor, radius, scale)
+            gq2, scale2 = quantise(g)
+            assert scale2 == scale
+            want = naive.moravec_response((gq2 * factor**-1).astype(np.float32), 2 * radius + 1)
+            assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+
+    def test_kernel_rounds_ties_to_even_as_quantise_does(self):
+        """The kernel quantises each pixel itself: values exactly halfway between two grid
+        steps round to even, as ``np.rint`` in ``quantise`` does."""
+        rng = np.random.default_rng(12)
+        img = (rng.integers(-4000, 4000, (23, 29)) / 2.0).astype(np.float32)
+        img[0, 0] = 2.0**19 - 1.0               # max |G|: the grid step is 1, so the
+        factor, scale = quantisation_step(img)  # half-integers are exact ties
+        assert factor == 1.0 and scale == 1.0
+        halves = img.astype(np.float64) % 1.0 == 0.5
+        assert halves.sum() > 200
+        gq, _ = quantise(img)
+        assert np.array_equal(gq, np.rint(img.astype(np.float64) * factor))
+        for radius in (0, 1, 2):
+            got = _k.moravec_response(img, factor, radius, scale)
+            want = naive.moravec_response((gq / factor).astype(np.float32), 2 * radius + 1)
+            assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+            # truncation or rounding half away from zero would give other sums
+            away = np.trunc(img.astype(np.float64) * factor + np.copysign(0.5, img))
+            other = naive.moravec_response((away / factor).astype(np.float32), 2 * radius + 1)
+            assert not np.array_equal(got, other)
+
+    def test_blank_and_tiny_grids(self):
+        assert quantisation_step(np.zeros((4, 5), np.float32)) == (1.0, 1.0)
+        assert quantisation_step(np.full((4, 5), -0.0, np.float32)) == (1.0, 1.0)
+        assert quantisation_step(np.zeros((0, 5), np.float32)) == (1.0, 1.0)
+        g = np.zeros((9, 9), np.float32)
+        g[4, 4] = -3.0                          # max |G| taken over negative values too
+        assert quantisation_step(g) == quantisation_step(-g)
 
     @pytest.mark.parametrize("scale", [1e-6, 1.0, 3.0, 1e6])
     def test_quantisation_is_fine(self, scale):
@@ -240,10 +280,12 @@ class TestStrictMaxima:
 
         vmax = cv2.dilate(v, np.ones((5, 5), np.uint8), borderType=cv2.BORDER_CONSTANT,
                           borderValue=-np.inf)
-        got = _k.strict_maxima(v, vmax, 2, 1, np.float32(-10.0))
+        got, pts, resp = _k.strict_maxima(v, vmax, 2, 1, np.float32(-10.0), False)
         want = naive.strict_maxima(v, 2, 1, -10.0)
         assert got.dtype == np.int64 and len(want) > 5
         assert np.array_equal(got, want)
+        assert pts.dtype == np.float32 and np.array_equal(pts, want[:, ::-1])
+        assert resp.dtype == np.float32 and np.array_equal(resp, v[want[:, 0], want[:, 1]])
 
     def test_plateau_is_not_a_maximum(self):
         v = np.zeros((15, 15), np.float32)
@@ -324,6 +366,49 @@ class TestStrictMaxima:
         assert (np.abs(off) <= 0.5).all() and np.abs(off).max() > 0.01
         assert np.array_equal(resp_s, v[pts_i[:, 1].astype(int), pts_i[:, 0].astype(int)])
 
+    @pytest.mark.parametrize("nms_size", [1, 3, 5])
+    @pytest.mark.parametrize("margin", [0, 2])
+    def test_subpixel_equals_numpy_formula(self, nms_size, margin):
+        """The offsets computed in the kernel are those of the NumPy formula
+        (naive.quadratic_offsets) bit for bit, including its den >= 0 rule and clipping:
+        with nms_size 1 every pixel above the threshold is a point, maxima or not."""
+        rng = np.random.default_rng(nms_size * 10 + margin)
+        v = rng.integers(0, 7, (21, 26)).astype(np.float32) * np.float32(0.37)
+        v[3:6, 4:9] = 2.0                                       # a plateau
+        v += rng.normal(size=v.shape).astype(np.float32) * (rng.random(v.shape) < 0.5)
+        v = np.abs(v).astype(np.float32)
+        for threshold in (0.0, 1.5):
+            pts_i, resp_i = moravec_points(v, nms_size, threshold=threshold, margin=margin)
+            pts_s, resp_s = moravec_points(v, nms_size, threshold=threshold, margin=margin,
+                                           subpixel=True)
+            assert np.array_equal(resp_i, resp_s) and len(pts_i) > 3
+            yx = pts_i[:, ::-1].astype(np.int64)
+            want = pts_i + naive.quadratic_offsets(v, yx)          # float32 + float32
+            assert want.dtype == np.float32
+            assert np.array_equal(pts_s.view(np.uint32), want.view(np.uint32))
+        if nms_size == 1:  # the rule's branches are exercised
+            c = v[yx[:, 0], yx[:, 1]].astype(np.float64)
+            lo = v[yx[:, 0], np.clip(yx[:, 1] - 1, 0, 25)].astype(np.float64)
+            hi = v[yx[:, 0], np.clip(yx[:, 1] + 1, 0, 25)].astype(np.float64)
+            den = lo - 2.0 * c + hi
+            assert (den >= 0).sum() > 5 and (den < 0).sum() > 5
+            with np.errstate(divide="ignore", invalid="ignore"):
+                raw = np.where(den < 0, 0.5 * (lo - hi) / den, 0.0)
+            assert (np.abs(raw) > 0.5).sum() > 0               # clipped
+            assert np.abs(pts_s - pts_i).max() <= 0.5
+
+    def test_subpixel_on_one_pixel_wide_images(self):
+        """Both neighbours clamp to the point itself: den = 0, no offset along that axis."""
+        v = np.array([0.0, 1.0, 3.0, 2.0, 0.5, 0.2], np.float32)
+        for img, yx in ((v[:, None], [[2, 0]]), (v[None, :], [[0, 2]])):
+            img = np.ascontiguousarray(img)
+            yx = np.array(yx, np.int64)
+            pts, _ = moravec_points(img, 3, subpixel=True)
+            want = yx[:, ::-1].astype(np.float32) + naive.quadratic_offsets(img, yx)
+            assert np.array_equal(pts, want)
+            clamped = 0 if img.shape[1] == 1 else 1          # x for a column, y for a row
+            assert pts[0, clamped] == 0.0 and pts[0, 1 - clamped] != 2.0
+
     @pytest.mark.parametrize("x0,y0", [(10.3, 12.0), (15.0, 9.75), (12.45, 13.2)])
     def test_subpixel_recovers_parabola_peak(self, x0, y0):
         yy, xx = np.mgrid[:25, :30].astype(np.float64)
@@ -362,6 +447,50 @@ class TestGradientWindows:
         # the sampling is exact bilinear, not cv2.remap's 1/32-pixel fixed-point weights
         assert not np.allclose(got, naive.gradient_windows(g, np.round(pts * 32) / 32, size),
                                rtol=0, atol=1e-3)
+
+    @pytest.mark.parametrize("size", [1, 3, 5, 9])
+    def test_bit_identical_to_reference_inside_at_and_beyond_the_border(self, size):
+        """The fast path (footprint inside the image, rows read in place) and the clamped
+        path give the reference's values bit for bit (float64 sums, rounded to float32)."""
+        rng = np.random.default_rng(20 + size)
+        h, w = 17, 23
+        g = rng.uniform(0, 255, (h, w)).astype(np.float32)
+        r = size // 2
+        pts = [
+            [r, r], [w - 1 - r, h - 1 - r],                  # integer, window at the border
+            [w - 2 - r, h - 2 - r],                          # integer, footprint just inside
+            [w - 1 - r - 0.5, h - 1 - r - 0.25],             # sub-pixel, footprint inside
+            [w - 1 - r + 0.25, h / 2],                       # footprint leaves on the right
+            [r - 0.5, h / 2], [w / 2, r - 0.75],             # ... on the left, at the top
+            [-3.5, 2.25], [w + 4.0, h + 1.5], [1e7, -1e7],   # outside, far outside
+        ]
+        pts += np.column_stack([rng.uniform(r, w - 1 - r, 40),
+                                rng.uniform(r, h - 1 - r, 40)]).tolist()
+        pts = np.array(pts, np.float32)
+        pts[-20:] = np.round(pts[-20:])                      # some integer centres inside
+        got = gradient_windows(g, pts, size)
+        want = naive.gradient_windows(g, pts, size).astype(np.float32)
+        assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+
+    def test_rows_do_not_depend_on_the_other_points(self):
+        """Points are described four at a time (interleaved sums): each row is the one the
+        point gets alone, whatever the batch size, order or neighbours (NaN centres too)."""
+        rng = np.random.default_rng(31)
+        g = rng.uniform(0, 9, (25, 30)).astype(np.float32)
+        pts = np.column_stack([rng.uniform(-2, 32, 11), rng.uniform(-2, 27, 11)])
+        pts = pts.astype(np.float32)
+        pts[4] = [np.nan, 3.0]
+        pts[7] = [5.0, -np.nan]
+        alone = np.concatenate([gradient_windows(g, pts[i:i + 1], 5) for i in range(11)])
+        assert np.isnan(alone[[4, 7]]).all() and not np.isnan(np.delete(alone, [4, 7], 0)).any()
+        assert np.array_equal(alone[[4, 7]].view(np.uint32),
+                              np.full((2, 25), np.nan, np.float32).view(np.uint32))
+        for n in range(1, 12):
+            assert np.array_equal(gradient_windows(g, pts[:n], 5).view(np.uint32),
+                                  alone[:n].view(np.uint32))
+        perm = rng.permutation(11)
+        assert np.array_equal(gradient_windows(g, pts[perm], 5).view(np.uint32),
+                              alone[perm].view(np.uint32))
 
     def test_windows_leaving_the_image_replicate_the_border(self):
         rng = np.random.default_rng(3)

@@ -30,27 +30,41 @@ def _as_float_image(image, name="image") -> np.ndarray:
 QUANT_LEVELS_LOG2 = 19
 
 
+def quantisation_step(g: np.ndarray) -> tuple[float, float]:
+    """The power-of-two grid of eq. 1's exact sums: ``(factor, scale)``, G quantised being
+    ``rint(float64(G) * factor)`` and ``scale`` the grid step squared (``factor ** -2``).
+
+    ``factor = 2**e`` brings ``max |G|`` to at most ``2**19`` (for an 8-bit image's gradient,
+    about 1/1000 of a grey level); a blank image gives ``(1.0, 1.0)``. The one home of the
+    rule: :func:`quantise` and the box kernel (which quantises each pixel itself) both use it.
+    """
+    # max |G| of float32 values, exactly, without an array of |G|
+    gmax = float(np.maximum(g.max(), -g.min())) if g.size else 0.0
+    if gmax == 0.0:
+        return 1.0, 1.0
+    e = math.floor(math.log2(2.0**QUANT_LEVELS_LOG2 / gmax))
+    return 2.0**e, 2.0 ** (-2 * e)
+
+
 def quantise(g: np.ndarray) -> tuple[np.ndarray, float]:
     """G on a power-of-two grid as int64, and ``scale`` = the grid step squared.
 
     The step is the power of two that brings ``max |G|`` to at most ``2**19`` (for an 8-bit
-    image's gradient, about 1/1000 of a grey level), so every window sum of eq. 1 is an exact
-    integer: fast sliding sums then give the same value as the textbook double loop.
+    image's gradient, about 1/1000 of a grey level; :func:`quantisation_step`), so every
+    window sum of eq. 1 is an exact integer: fast sliding sums then give the same value as
+    the textbook double loop.
     """
-    gmax = float(np.abs(g).max()) if g.size else 0.0
-    if gmax == 0.0:
-        return np.zeros(g.shape, np.int64), 1.0
-    e = math.floor(math.log2(2.0**QUANT_LEVELS_LOG2 / gmax))
-    gq = np.rint(g.astype(np.float64) * 2.0**e).astype(np.int64)
-    return gq, 2.0 ** (-2 * e)
+    factor, scale = quantisation_step(g)
+    return np.rint(g.astype(np.float64) * factor).astype(np.int64), scale
 
 
 def response(g: np.ndarray, window_size: int, window_sigma: float = 0.0) -> np.ndarray:
     """Eq. 1 on a validated float32 image (see :func:`moravec_response`)."""
-    gq, scale = quantise(g)
     if window_sigma > 0.0 and window_size > 1:
+        gq, scale = quantise(g)
         return _weighted_response(gq, scale, window_size, window_sigma)
-    return _k.moravec_response(gq, window_size // 2, scale)
+    factor, scale = quantisation_step(g)
+    return _k.moravec_response(g, factor, window_size // 2, scale)
 
 
 def window_weights(window_size: int, window_sigma: float) -> np.ndarray:
@@ -204,46 +218,31 @@ def _select_points(v, nms_size, threshold, relative_threshold, margin, max_featu
                    mask):
     """``moravec_points`` on validated arguments."""
     radius = nms_size // 2
-    thr = max(threshold, relative_threshold * float(v.max())) if v.size else threshold
+    thr = threshold
+    if relative_threshold and v.size:  # 0 * max V would leave max(threshold, 0.0) unchanged
+        thr = max(threshold, relative_threshold * float(v.max()))
     kernel = np.ones((2 * radius + 1, 2 * radius + 1), np.uint8)
     vmax = cv2.dilate(v, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=-np.inf)
-    yx = _k.strict_maxima(v, vmax, radius, margin, np.float32(thr))
+    yx, pts, resp = _k.strict_maxima(v, vmax, radius, margin, np.float32(thr), bool(subpixel))
+    del vmax
     if mask is not None and len(yx):
-        yx = yx[mask[yx[:, 0], yx[:, 1]]]
-    resp = v[yx[:, 0], yx[:, 1]]
+        keep = mask[yx[:, 0], yx[:, 1]]
+        pts, resp = np.compress(keep, pts, axis=0), resp[keep]
     order = strongest_first(resp)
     if max_features:
         order = order[:max_features]
-    yx, resp = yx[order], resp[order]
-    pts = yx[:, ::-1].astype(np.float32)
-    if subpixel and len(yx):
-        pts += _quadratic_offsets(v, yx)
-    return np.ascontiguousarray(pts), resp.astype(np.float32)
+    # np.take: rows in that order, ten times faster than fancy indexing on (N, 2) rows
+    return np.take(pts, order, axis=0), resp.take(order)
 
 
 def strongest_first(resp: np.ndarray) -> np.ndarray:
     """``np.argsort(-resp, kind="stable")`` for non-negative float32 responses, faster: the
     responses' bit patterns (monotonic for non-negative floats) and the indices make one
     unique int64 key per point, which the default sort orders exactly as a stable sort
-    would."""
+    would. The keys being unique, sorting them (cheaper than ``argsort``) and keeping their
+    low 32 bits, the index, is that argsort."""
     n = len(resp)
     bits = np.ascontiguousarray(resp, dtype=np.float32).view(np.int32).astype(np.int64)
     key = ((np.int64(0x7FFFFFFF) - bits) << np.int64(32)) | np.arange(n, dtype=np.int64)
-    return np.argsort(key)
-
-
-def _quadratic_offsets(v, yx):
-    """Sub-pixel offsets (dx, dy) of maxima from a parabola through V at p - 1, p, p + 1."""
-    y, x = yx[:, 0], yx[:, 1]
-    h, w = v.shape
-    xm, xp = np.clip(x - 1, 0, w - 1), np.clip(x + 1, 0, w - 1)
-    ym, yp = np.clip(y - 1, 0, h - 1), np.clip(y + 1, 0, h - 1)
-    c = v[y, x].astype(np.float64)
-    out = np.zeros((len(yx), 2), np.float32)
-    for axis, (lo, hi) in enumerate(((v[y, xm], v[y, xp]), (v[ym, x], v[yp, x]))):
-        lo, hi = lo.astype(np.float64), hi.astype(np.float64)
-        den = lo - 2.0 * c + hi
-        with np.errstate(divide="ignore", invalid="ignore"):
-            off = np.where(den < 0, 0.5 * (lo - hi) / den, 0.0)
-        out[:, axis] = np.clip(off, -0.5, 0.5)
-    return out
+    key.sort()
+    return key & np.int64(0xFFFFFFFF)
