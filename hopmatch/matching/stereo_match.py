@@ -91,7 +91,7 @@ def _describe(detector, image, mask):
     g = detector._feature_image(gray, name)
     pts, resp = detector._points_on(g, m)
     keep, desc = detector.describe_points(g, pts)
-    return gray.shape, pts[keep], resp[keep], desc
+    return gray.shape, np.compress(keep, pts, axis=0), resp[keep], desc
 
 
 def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_matrix=None,
