@@ -354,6 +354,21 @@ class TestSimilarity:
         rng = np.random.default_rng(0)
         sift_like = rng.uniform(0, 1, (20, 128)).astype(np.float32)
         assert shift_minimal(sift_like, sift_like[::-1], np.arange(20), np.arange(20)).all()
+        # square rows (9 x 9) that are not zero-mean: only the matched rows are tested, and
+        # one that fails, even the last, lets every match pass
+        rng = np.random.default_rng(1)
+        windows = rng.normal(size=(30, 81)).astype(np.float32)
+        windows -= windows.mean(axis=1, keepdims=True)
+        shifted = np.roll(windows.reshape(30, 9, 9), 1, axis=2).reshape(30, 81)
+        qi = np.arange(10)
+        assert not shift_minimal(windows, shifted, qi, qi).all()  # windows: tested
+        offset = windows.copy()
+        offset[25] += 5.0                                         # a row with a mean
+        assert np.array_equal(shift_minimal(offset, shifted, qi, qi),
+                              shift_minimal(windows, shifted, qi, qi))  # row 25 unmatched
+        last = np.r_[qi, 25]
+        assert shift_minimal(offset, np.r_[shifted[:10], shifted[25:26]],
+                             last, np.arange(11)).all()
 
     def test_hamming_fraction(self):
         rng = np.random.default_rng(1)

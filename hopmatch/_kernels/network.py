@@ -532,34 +532,35 @@ def normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, eps, gate):
 
 
 @jit
-def rows_zero_mean(desc, rows, rel_tol, abs_tol):
-    """Whether every row ``desc[rows[t]]`` has ``|mean| <= rel_tol * mean |x| + abs_tol``
-    (float64 sums): the zero-mean test of windows (eqs. 8-9) that ``is_window_descriptor``
-    applies. Stops at the first row that fails."""
-    dim = desc.shape[1]
-    for t in range(rows.shape[0]):
-        a = desc[rows[t]]
-        s = 0.0
-        m = 0.0
-        for u in range(dim):
-            x = np.float64(a[u])
-            s += x
-            m += abs(x)
-        if not abs(s / dim) <= rel_tol * (m / dim) + abs_tol:
-            return False
-    return True
+def zero_mean(a, rel_tol, abs_tol):
+    """Whether the row ``a`` has ``|mean| <= rel_tol * mean |x| + abs_tol`` (float64 sums):
+    the zero-mean test of windows (eqs. 8-9)."""
+    dim = a.shape[0]
+    s = 0.0
+    m = 0.0
+    for u in range(dim):
+        x = np.float64(a[u])
+        s += x
+        m += abs(x)
+    return abs(s / dim) <= rel_tol * (m / dim) + abs_tol
 
 
 @jit
-def shift_minimal_windows(desc_l, desc_r, qi, ti, size):
+def shift_minimal_windows(desc_l, desc_r, qi, ti, size, rel_tol, abs_tol):
     """For each pair (qi, ti) of ``size x size`` windows stored as rows: whether the mean
     absolute difference of the overlapping columns is no larger at the matched position
-    than with the right window shifted by one column either way."""
+    than with the right window shifted by one column either way.
+
+    Returns ``(keep, windows)``; ``windows`` is False, and ``keep`` meaningless, as soon as
+    a row fails :func:`zero_mean` (the rows are not windows of eqs. 8-9: SIFT, KAZE...).
+    """
     n = qi.shape[0]
     keep = np.empty(n, dtype=np.bool_)
     for p in range(n):
         a = desc_l[qi[p]]
         b = desc_r[ti[p]]
+        if not (zero_mean(a, rel_tol, abs_tol) and zero_mean(b, rel_tol, abs_tol)):
+            return keep, False
         c_minus = 0.0
         c_zero = 0.0
         c_plus = 0.0
@@ -574,7 +575,7 @@ def shift_minimal_windows(desc_l, desc_r, qi, ti, size):
         c_plus /= size * (size - 1)
         c_zero /= size * (size - 2)
         keep[p] = c_zero <= c_minus and c_zero <= c_plus
-    return keep
+    return keep, True
 
 
 @jit

@@ -189,18 +189,16 @@ def vertical_offsets(left, right, ni, nk, fundamental=None) -> np.ndarray:
         return np.where(norm > 0, num / norm, np.inf)
 
 
-def is_window_descriptor(desc: np.ndarray, rows: np.ndarray | None = None) -> bool:
-    """Whether rows look like the windows of eqs. 8-9: float, square length (s >= 3), and
-    zero-mean rows (as ``gradient_windows`` makes them; SIFT, KAZE... rows are not).
-    ``rows``: test only these rows (all by default)."""
+#: The zero-mean test of window rows: ``|mean| <= WINDOW_MEAN_TOL[0] * mean |x| + [1]``.
+WINDOW_MEAN_TOL = (1e-3, 1e-9)
+
+
+def _window_shaped(desc: np.ndarray) -> bool:
+    """Whether rows can be the windows of eqs. 8-9: float, square length (s >= 3)."""
     if desc.dtype == np.uint8 or desc.ndim != 2 or len(desc) == 0:
         return False
     s = int(round(np.sqrt(desc.shape[1])))
-    if s < 3 or s * s != desc.shape[1]:
-        return False
-    rows = np.arange(len(desc)) if rows is None else np.asarray(rows, dtype=np.int64)
-    return len(rows) > 0 and bool(_k.rows_zero_mean(np.ascontiguousarray(desc), rows,
-                                                    1e-3, 1e-9))
+    return s >= 3 and s * s == desc.shape[1]
 
 
 def shift_minimal(desc_l: np.ndarray, desc_r: np.ndarray, qi: np.ndarray,
@@ -211,16 +209,18 @@ def shift_minimal(desc_l: np.ndarray, desc_r: np.ndarray, qi: np.ndarray,
     Compares the overlapping columns of the square (s x s) descriptor windows at column
     shifts -1, 0, +1 with the mean absolute difference. A match whose cost is lower at a
     one-pixel shift is a localisation near-miss (the right keypoint is off by >= 1 px) and
-    is rejected. Descriptors that are not windows (see :func:`is_window_descriptor`) pass
-    unchanged.
+    is rejected. Descriptors that are not windows pass unchanged: windows (as
+    ``gradient_windows`` makes them) are float rows of square length with zero mean, SIFT,
+    KAZE... rows are not (``_k.zero_mean`` on the matched rows, :data:`WINDOW_MEAN_TOL`).
     """
     qi = np.ascontiguousarray(qi, dtype=np.int64)
     ti = np.ascontiguousarray(ti, dtype=np.int64)
-    if len(qi) == 0 or not (is_window_descriptor(desc_l, qi)
-                            and is_window_descriptor(desc_r, ti)):
-        return np.ones(len(qi), dtype=bool)
+    keep = np.ones(len(qi), dtype=bool)
+    if len(qi) == 0 or not (_window_shaped(desc_l) and _window_shaped(desc_r)):
+        return keep
     s = int(round(np.sqrt(desc_l.shape[1])))
-    return _k.shift_minimal_windows(desc_l, desc_r, qi, ti, s)
+    shift_keep, windows = _k.shift_minimal_windows(desc_l, desc_r, qi, ti, s, *WINDOW_MEAN_TOL)
+    return shift_keep if windows else keep
 
 
 def neighbours_with_neurons(left, start, width, height):
