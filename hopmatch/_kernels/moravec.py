@@ -117,6 +117,24 @@ def moravec_response(g, factor, radius, scale):
 
 
 @jit(exact=True)
+def parabola_offset(lo, c, hi):
+    """Sub-pixel offset of a maximum (eq. 2's points refined): the vertex of the parabola
+    through (-1, lo), (0, c), (1, hi), in float64; 0 unless the parabola opens downwards,
+    clipped to half a pixel."""
+    lo = np.float64(lo)
+    hi = np.float64(hi)
+    den = lo - 2.0 * c + hi
+    off = 0.0
+    if den < 0:
+        off = 0.5 * (lo - hi) / den
+    if off < -0.5:
+        off = -0.5
+    elif off > 0.5:
+        off = 0.5
+    return off
+
+
+@jit(exact=True)
 def strict_maxima(v, vmax, radius, margin, threshold, subpixel):
     """Eq. 2: pixels p with ``V(p) > threshold`` and ``V(p) > V(q)`` for every other q with
     ``max(|qx - px|, |qy - py|) <= radius`` (neighbours outside the image do not exist).
@@ -195,28 +213,8 @@ def strict_maxima(v, vmax, radius, margin, threshold, subpixel):
         py = np.float32(y)
         if subpixel:  # the vertex of the parabola along x, then along y
             c = np.float64(c32)
-            lo = np.float64(v[y, max(x - 1, 0)])
-            hi = np.float64(v[y, min(x + 1, w - 1)])
-            den = lo - 2.0 * c + hi
-            off = 0.0
-            if den < 0:
-                off = 0.5 * (lo - hi) / den
-            if off < -0.5:
-                off = -0.5
-            elif off > 0.5:
-                off = 0.5
-            px = px + np.float32(off)
-            lo = np.float64(v[max(y - 1, 0), x])
-            hi = np.float64(v[min(y + 1, h - 1), x])
-            den = lo - 2.0 * c + hi
-            off = 0.0
-            if den < 0:
-                off = 0.5 * (lo - hi) / den
-            if off < -0.5:
-                off = -0.5
-            elif off > 0.5:
-                off = 0.5
-            py = py + np.float32(off)
+            px = px + np.float32(parabola_offset(v[y, max(x - 1, 0)], c, v[y, min(x + 1, w - 1)]))
+            py = py + np.float32(parabola_offset(v[max(y - 1, 0), x], c, v[min(y + 1, h - 1), x]))
         pts[t, 0] = px
         pts[t, 1] = py
     return yx, pts, resp
