@@ -152,29 +152,23 @@ class TestCandidates:
         assert np.array_equal(gk, nk) and np.array_equal(gv, nk * 10.0)
 
     @pytest.mark.parametrize("spread", [False, True])
-    def test_row_order_and_band_index_fall_back_when_rows_spread(self, spread):
-        """Rows spread over far more values than there are points are not counted: the
-        visit order is the index order and the right points are sorted by NumPy instead;
-        the pairs are the same either way."""
+    def test_row_order_and_band_index_sort_when_rows_spread(self, spread):
+        """Rows spread over far more values than there are points are sorted instead of
+        counted: the orders, and the pairs, are the same either way."""
         from hopmatch.matching.network import _left_visit_order, _right_band_index
 
         left, right, _, _ = make_problem(3, 50, 60)
         if spread:
             left[::7, 1] += 1e6
             right[::7, 1] += 1e6
-        order, ok = _k.row_order(left, 4 * len(left) + 1024)
-        assert ok is not spread
         visit = _left_visit_order(left)
-        assert sorted(visit.tolist()) == list(range(len(left)))
-        if spread:
-            assert np.array_equal(visit, np.arange(len(left)))
-        else:
-            assert np.array_equal(visit, order)
-            assert np.array_equal(visit, np.argsort(np.floor(left[:, 1]), kind="stable"))
-        assert _k.band_index(right, 4 * len(right) + 1024)[-1] is not spread
+        assert np.array_equal(visit, np.argsort(np.floor(left[:, 1]), kind="stable"))
+        for limit in (0, 10**7):  # forced sort, forced count
+            assert np.array_equal(_k.row_order(left, limit)[0], visit)
         rows, row_start, r_order, rx, ry = _right_band_index(right)
         want = sorted(range(len(right)), key=lambda k: (np.floor(right[k, 1]), right[k, 0], k))
         assert r_order.tolist() == want
+        assert rows.tolist() == sorted(set(np.floor(right[:, 1]).astype(np.int64).tolist()))
         ni, nk = candidate_pairs(left, right, 0.0, 20.0, 2.0, 10**6)
         assert list(zip(ni.tolist(), nk.tolist())) == naive.candidate_pairs(
             left, right, 0.0, 20.0, 2.0)

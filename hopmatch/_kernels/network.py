@@ -80,49 +80,53 @@ def point_rows(points):
 
 @jit
 def row_order(points, max_span):
-    """The points ordered by row ``floor(y)`` (index order within a row), by a counting sort:
-    ``(order, ok)``. ``ok`` is False, and ``order`` empty, when the rows span more than
-    ``max_span`` values (the counts would not be O(N))."""
+    """The points ordered by row ``floor(y)``, index order within a row: ``(order, rows)``,
+    ``rows`` each point's row. A counting sort when the rows span at most ``max_span``
+    values (O(N) counts), else one sort of unique int64 keys, the row above the 31-bit index
+    (coordinates are validated to ``|v| <= 2**20``, indices are below 2**31)."""
     n = points.shape[0]
     rows, rmin, rmax = point_rows(points)
-    if n == 0 or rmax - rmin + 1 > max_span:
-        return np.empty(0, dtype=np.int64), n == 0
+    order = np.empty(n, dtype=np.int64)
+    if n == 0:
+        return order, rows
     span = rmax - rmin + 1
+    if span > max_span:
+        key = np.empty(n, dtype=np.int64)
+        for i in range(n):
+            key[i] = ((rows[i] - rmin) << 31) | i
+        key.sort()
+        for t in range(n):
+            order[t] = key[t] & (2**31 - 1)
+        return order, rows
     fill = np.zeros(span + 1, dtype=np.int64)
     for i in range(n):
         fill[rows[i] - rmin + 1] += 1
     for r in range(span):
         fill[r + 1] += fill[r]
-    order = np.empty(n, dtype=np.int64)
     for i in range(n):
         order[fill[rows[i] - rmin]] = i
         fill[rows[i] - rmin] += 1
-    return order, True
+    return order, rows
 
 
 @jit
 def band_index(points, max_span):
     """What :func:`band_candidates` needs of the right points: ``(row_values, row_start,
-    order, rx, ry, ok)`` -- the distinct rows ``floor(y)`` (increasing), each row's offsets
+    order, rx, ry)`` -- the distinct rows ``floor(y)`` (increasing), each row's offsets
     in ``order``, the points row by row with x increasing (ties: index increasing), and
     their coordinates in that order.
 
     Rows by :func:`row_order`; within a row, one unique int64 key per point, the float32 x
     made monotonic as an unsigned 32-bit number above the 31-bit index (indices < 2**31),
-    sorted by insertion (short rows) or ``np.argsort``. ``ok`` is False when
-    :func:`row_order` refuses the row span (the caller sorts otherwise).
+    sorted by insertion (short rows) or ``np.sort``.
     """
     n = points.shape[0]
-    order, ok = row_order(points, max_span)
-    empty_i = np.empty(0, dtype=np.int64)
-    empty_f = np.empty(0, dtype=np.float32)
-    if not ok:
-        return empty_i, empty_i, empty_i, empty_f, empty_f, False
+    order, point_row = row_order(points, max_span)
     key = np.empty(n, dtype=np.int64)
     rows = np.empty(n, dtype=np.int64)
     for t in range(n):
         i = order[t]
-        rows[t] = np.int64(np.floor(np.float64(points[i, 1])))
+        rows[t] = point_row[i]
         bits = np.int64(np.float32(points[i, 0]).view(np.int32))
         if bits < 0:
             bits = -bits - 2**31 - 1
@@ -159,7 +163,7 @@ def band_index(points, max_span):
         order[t] = i
         rx[t] = points[i, 0]
         ry[t] = points[i, 1]
-    return row_values[:nrows].copy(), row_start[:nrows + 1].copy(), order, rx, ry, True
+    return row_values[:nrows].copy(), row_start[:nrows + 1].copy(), order, rx, ry
 
 
 @jit

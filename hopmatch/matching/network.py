@@ -92,41 +92,23 @@ def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
 
 
 def _row_span_limit(n: int) -> int:
-    """Largest row span the counting sorts of the candidate search accept for n points."""
+    """Largest row span the candidate search counts rows over for n points (beyond it, it
+    sorts them: ``_k.row_order``)."""
     return 4 * n + 1024
 
 
 def _right_band_index(right):
     """What the rectified candidate search (``band_candidates``) needs of the right points:
-    the distinct rows ``floor(y)``, the points row by row with x increasing (ties: index
-    increasing), each row's offsets in that order, and the coordinates in that order.
-
-    Counting sort by row (``_k.band_index``); for rows spread over more than
-    :func:`_row_span_limit` values, one stable NumPy sort of a (row, x) int64 key instead.
-    """
-    *index, ok = _k.band_index(right, _row_span_limit(len(right)))
-    if ok:
-        return tuple(index)
-    rows = np.floor(right[:, 1].astype(np.float64)).astype(np.int64)
-    # x's float32 bits made monotonic, as an unsigned 32-bit number, below the row
-    # (coordinates are validated to |v| < 2**30)
-    bits = np.ascontiguousarray(right[:, 0], dtype=np.float32).view(np.int32).astype(np.int64)
-    x_key = np.where(bits < 0, -bits - 2**31 - 1, bits) + 2**31
-    key = ((rows - (rows.min() if len(rows) else 0)) << 32) | x_key
-    order = np.argsort(key, kind="stable")  # equal (row, x) keep index order
-    in_order = rows[order]
-    first = np.zeros(0, dtype=np.int64)
-    if len(order):
-        first = np.flatnonzero(np.r_[True, in_order[1:] != in_order[:-1]])
-    return (in_order[first], np.r_[first, len(order)].astype(np.int64), order,
-            np.ascontiguousarray(right[order, 0]), np.ascontiguousarray(right[order, 1]))
+    the distinct rows ``floor(y)``, each row's offsets in the order below, the points row by
+    row with x increasing (ties: index increasing), and the coordinates in that order
+    (``_k.band_index``)."""
+    return _k.band_index(right, _row_span_limit(len(right)))
 
 
 def _left_visit_order(left) -> np.ndarray:
-    """The order the candidate search visits the left points in: row by row (cache-friendly,
-    ``_k.row_order``), or index order when the rows are spread too widely to count."""
-    order, ok = _k.row_order(left, _row_span_limit(len(left)))
-    return order if ok else np.arange(len(left), dtype=np.int64)
+    """The order the candidate search visits the left points in: row by row, index order
+    within a row (cache-friendly, ``_k.row_order``)."""
+    return _k.row_order(left, _row_span_limit(len(left)))[0]
 
 
 def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max_neurons,
