@@ -90,6 +90,7 @@ def kernel_network(left, right, desc_l, desc_r, p):
     off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx,
                                        p["similarity_weight"] * sim, p["theta"], p["slope"],
                                        n_inter)
+    assert off[-1] == n_inter
     return dict(ni=ni, nk=nk, sim=sim, start=start, nb_off=nb_off, nb_idx=nb_idx,
                 n_inter=n_inter, off=off, idx=idx, w=w)
 
@@ -623,6 +624,54 @@ def _brute_force_interactions(left, right, p):
     return int(round(bound - same_k)), int(round(bound))
 
 
+def stored_weights(off, idx, w, n):
+    """The CSR weights as a dense (n, n) array, NaN where no interaction is stored."""
+    dense = np.full((n, n), np.nan)
+    for q in range(n):
+        dense[q, idx[off[q]:off[q + 1]]] = w[off[q]:off[q + 1]]
+    return dense
+
+
+class TestMirroredWeights:
+    """``fill_interactions`` computes each symmetric weight once and copies it to its mirror
+    entry, and only when that entry is the mirror."""
+
+    @pytest.mark.parametrize("seed", range(4))
+    def test_symmetric_lists_give_exactly_symmetric_weights(self, config, seed):
+        p = params(**CONFIGS[config])
+        problem = make_problem(seed, 30)
+        net = kernel_network(*problem, p)
+        dense = naive.dense_network(*problem, p)
+        w = stored_weights(net["off"], net["idx"], net["w"], len(net["ni"]))
+        assert np.array_equal(w, w.T, equal_nan=True)
+        assert np.allclose(np.nan_to_num(w), dense["C"], rtol=0, atol=1e-7)
+
+    @pytest.mark.parametrize("seed", range(4))
+    def test_one_sided_lists_give_each_pair_its_own_weight(self, seed):
+        """Neighbour lists where j may list i but not the reverse: every stored weight is
+        still eq. 5 of its own pair, whether a mirror entry exists or not."""
+        p = params(**CONFIGS["default"])
+        left, right, desc_l, desc_r = make_problem(seed, 30)
+        net = kernel_network(left, right, desc_l, desc_r, p)
+        dense = naive.dense_network(left, right, desc_l, desc_r, p)
+        rng = np.random.default_rng(seed)
+        keep = rng.random(len(net["nb_idx"])) < 0.6
+        kept_before = np.r_[0, np.cumsum(keep)]
+        nb_off = kept_before[net["nb_off"]]  # each list keeps its kept entries, in order
+        nb_idx = net["nb_idx"][keep]
+        ni, nk, start = net["ni"], net["nk"], net["start"]
+        n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
+        off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx,
+                                           p["similarity_weight"] * net["sim"], p["theta"],
+                                           p["slope"], n_inter)
+        assert off[-1] == n_inter > 0
+        got = stored_weights(off, idx, w, len(ni))
+        stored = ~np.isnan(got)
+        assert (stored <= dense["adj"]).all() and stored.sum() < dense["adj"].sum()
+        assert (stored & ~stored.T).any() and (stored & stored.T).any()  # both cases met
+        assert np.allclose(got[stored], dense["C"][stored], rtol=0, atol=1e-7)
+
+
 class TestSparsity:
     @pytest.mark.parametrize("seed,n", PROBLEMS)
     def test_count_small(self, config, seed, n):
@@ -633,6 +682,7 @@ class TestSparsity:
         bound = sum(cnt[net["nb_idx"][net["nb_off"][i]:net["nb_off"][i + 1]]].sum()
                     for i in net["ni"])
         assert net["n_inter"] <= bound
+        assert _k.interaction_bound(net["start"], net["nb_off"], net["nb_idx"]) == bound
         if p["similarity_gate"] is None and not p["max_candidates"]:
             assert (net["n_inter"], bound) == _brute_force_interactions(problem[0], problem[1], p)
 

@@ -219,6 +219,23 @@ def neighbours_with_neurons(left, start, width, height):
     return offsets, has[idx_s].astype(np.int32)
 
 
+def interaction_capacity(ni, nk, start, nb_off, nb_idx, max_interactions: int) -> int:
+    """Room to allocate for the interactions: the cheap :func:`_k.interaction_bound` when it
+    is within ``max_interactions``, else the exact count, which must be within it
+    (:class:`BudgetExceededError` otherwise, before anything of that size is allocated)."""
+    bound = _k.interaction_bound(start, nb_off, nb_idx)
+    if bound <= max_interactions:
+        return bound
+    n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
+    if n_inter > max_interactions:
+        raise BudgetExceededError(
+            f"the network would have {n_inter} interactions, more than max_interactions="
+            f"{max_interactions}; shrink neighbour_width/neighbour_height, narrow the "
+            "disparity range, use fewer keypoints, or raise max_interactions"
+        )
+    return n_inter
+
+
 def _starts(ni: np.ndarray, n_left: int) -> np.ndarray:
     start = np.zeros(n_left + 1, dtype=np.int64)
     np.cumsum(np.bincount(ni, minlength=n_left), out=start[1:])
@@ -262,16 +279,11 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
 
     nb_off, nb_idx = neighbours_with_neurons(left, start, p["neighbour_width"],
                                              p["neighbour_height"])
-    n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
-    if n_inter > p["max_interactions"]:
-        raise BudgetExceededError(
-            f"the network would have {n_inter} interactions, more than max_interactions="
-            f"{p['max_interactions']}; shrink neighbour_width/neighbour_height, narrow the "
-            "disparity range, use fewer keypoints, or raise max_interactions"
-        )
+    capacity = interaction_capacity(ni, nk, start, nb_off, nb_idx, p["max_interactions"])
     weighted = p["similarity_weight"] * sim
     off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, weighted,
-                                       p["theta"], p["slope"], n_inter)
+                                       p["theta"], p["slope"], capacity)
+    n_inter = off[-1]
     v = np.zeros(len(ni), dtype=np.uint8)
     biases = ([p["initial_bias"]] if p["initial_bias"] is not None else []) + [p["input_bias"]]
     iterations, sweeps, traces = 0, 0, []
