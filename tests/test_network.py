@@ -147,10 +147,20 @@ class TestCandidates:
         rows = np.floor(left[groups, 1])
         assert (np.diff(rows) >= 0).all()  # visited row by row
         values = uk.astype(np.float64) * 10
-        gi, gk, gv = _k.group_by_left(ui, uk, values, len(left))
+        gi, gk, gv = _k.group_by_left(ui, uk, values, len(left), False, 0.0)
         assert np.array_equal(gi, ni)
         _k.sort_groups(gi, gk, gv)
         assert np.array_equal(gk, nk) and np.array_equal(gv, nk * 10.0)
+        # gated: the same as dropping the pairs above the limit (and NaN) first
+        values[::3] = np.nan
+        limit = float(np.nanmedian(values))
+        gi, gk, gv = _k.group_by_left(ui, uk, values, len(left), True, limit)
+        _k.sort_groups(gi, gk, gv)
+        keep = values <= limit
+        wi, wk, wv = _k.group_by_left(ui[keep], uk[keep], values[keep], len(left), False, 0.0)
+        _k.sort_groups(wi, wk, wv)
+        assert 0 < len(gi) < len(ui)
+        assert np.array_equal(gi, wi) and np.array_equal(gk, wk) and np.array_equal(gv, wv)
 
     @pytest.mark.parametrize("spread", [False, True])
     def test_row_order_and_band_index_sort_when_rows_spread(self, spread):
@@ -264,6 +274,15 @@ class TestCandidates:
         assert 6 in got[5] and 5 in got[6]
         if width == 40.0:
             assert sum(map(len, want)) > 60
+        # among the points with neurons only: the others have, and are in, no list
+        rng = np.random.default_rng(seed)
+        start = np.r_[0, np.cumsum(rng.integers(0, 3, len(pts)) * (rng.random(len(pts)) < 0.6))]
+        has = np.flatnonzero(np.diff(start) > 0)
+        off, idx = _k.neighbour_lists_among(pts, start, np.float32(width / 2),
+                                            np.float32(height / 2))
+        got = [idx[off[i]:off[i + 1]].tolist() for i in range(len(pts))]
+        assert got == [[j for j in want[i] if j in has] if i in has else []
+                       for i in range(len(pts))]
 
 
 # ======================================================================================

@@ -167,19 +167,25 @@ def band_index(points, max_span):
 
 
 @jit
-def group_by_left(ni, nk, values, n_left):
+def group_by_left(ni, nk, values, n_left, gated, limit):
     """Pairs grouped by left point in any order, regrouped by i increasing (a stable
-    counting sort: each group keeps its order). Returns new ``(ni, nk, values)``."""
+    counting sort: each group keeps its order). With ``gated``, only the pairs with
+    ``values <= limit`` are kept (NaN is not). Returns new ``(ni, nk, values)``."""
     n = ni.shape[0]
     fill = np.zeros(n_left + 1, dtype=np.int64)
+    kept = 0
     for t in range(n):
-        fill[ni[t] + 1] += 1
+        if not gated or values[t] <= limit:
+            fill[ni[t] + 1] += 1
+            kept += 1
     for i in range(n_left):
         fill[i + 1] += fill[i]
-    oi = np.empty(n, dtype=ni.dtype)
-    ok = np.empty(n, dtype=nk.dtype)
-    ov = np.empty(n, dtype=values.dtype)
+    oi = np.empty(kept, dtype=ni.dtype)
+    ok = np.empty(kept, dtype=nk.dtype)
+    ov = np.empty(kept, dtype=values.dtype)
     for t in range(n):
+        if gated and not values[t] <= limit:
+            continue
         w = fill[ni[t]]
         oi[w] = ni[t]
         ok[w] = nk[t]
@@ -424,6 +430,36 @@ def neighbour_lists(points, half_w, half_h):
                       & (abs(sy[t] - yi) <= half_h))
         offsets[i + 1] = p
     return offsets, transposed_lists(offsets, indices)
+
+
+@jit
+def neighbour_lists_among(points, start, half_w, half_h):
+    """:func:`neighbour_lists` among the points with neurons (``start[i + 1] > start[i]``),
+    as CSR lists over all the points: the others have empty lists and are in none."""
+    n = points.shape[0]
+    m = 0
+    for i in range(n):
+        if start[i + 1] > start[i]:
+            m += 1
+    has = np.empty(m, dtype=np.int64)
+    sub = np.empty((m, 2), dtype=points.dtype)
+    a = 0
+    for i in range(n):
+        if start[i + 1] > start[i]:
+            has[a] = i
+            sub[a, 0] = points[i, 0]
+            sub[a, 1] = points[i, 1]
+            a += 1
+    off_s, idx_s = neighbour_lists(sub, half_w, half_h)
+    offsets = np.zeros(n + 1, dtype=np.int64)
+    for a in range(m):
+        offsets[has[a] + 1] = off_s[a + 1] - off_s[a]
+    for i in range(n):
+        offsets[i + 1] += offsets[i]
+    idx = np.empty(idx_s.shape[0], dtype=np.int32)
+    for t in range(idx_s.shape[0]):
+        idx[t] = has[idx_s[t]]
+    return offsets, idx
 
 
 @jit

@@ -122,7 +122,7 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
 
     The pairs are sorted by (i, k); with ``sort=False`` they are only grouped by left point
     (in the order the search visited them): sort what is left after gating with
-    ``_k.group_by_left`` then ``_k.sort_groups``, which is cheaper.
+    ``_k.group_by_left`` (which can gate them) then ``_k.sort_groups``, which is cheaper.
 
     ``contrast_gate=(contrasts, gate)`` (rectified search only; ``contrasts`` from
     :func:`window_contrasts`) leaves out the pairs :func:`similarity_distance` would put past
@@ -152,7 +152,7 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
             "max_vertical, use fewer keypoints, or raise max_neurons"
         )
     if sort:
-        ni, nk, _ = _k.group_by_left(ni, nk, np.empty(len(ni)), len(left))
+        ni, nk, _ = _k.group_by_left(ni, nk, np.empty(len(ni)), len(left), False, 0.0)
         _k.sort_groups(ni, nk, np.empty(len(ni)))
     return ni, nk
 
@@ -209,14 +209,7 @@ def neighbours_with_neurons(left, start, width, height):
     """CSR neighbour lists (SPEC section 4's ``width x height`` window) among the left points
     that have neurons; points without neurons neither have nor are neighbours, since no
     interaction can involve them."""
-    n_left = len(left)
-    has = np.flatnonzero(start[1:] > start[:-1])
-    off_s, idx_s = _k.neighbour_lists(np.ascontiguousarray(left[has]), np.float32(width / 2),
-                                      np.float32(height / 2))
-    offsets = np.zeros(n_left + 1, dtype=np.int64)
-    offsets[has + 1] = np.diff(off_s)
-    np.cumsum(offsets, out=offsets)
-    return offsets, has[idx_s].astype(np.int32)
+    return _k.neighbour_lists_among(left, start, np.float32(width / 2), np.float32(height / 2))
 
 
 def interaction_capacity(ni, nk, start, nb_off, nb_idx, max_interactions: int) -> int:
@@ -263,10 +256,8 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
         ni, nk = ni[keep], nk[keep]
     sim = (similarity_distance(desc_l, desc_r, ni, nk, gate, contrasts) if len(ni)
            else np.zeros(0))
-    if gate is not None:
-        keep = sim <= gate
-        ni, nk, sim = ni[keep], nk[keep], sim[keep]
-    ni, nk, sim = _k.group_by_left(ni, nk, sim, nl)
+    ni, nk, sim = _k.group_by_left(ni, nk, sim, nl, gate is not None,
+                                   0.0 if gate is None else float(gate))
     _k.sort_groups(ni, nk, sim)
     if p["max_candidates"] and len(ni):
         order = np.lexsort((sim, ni))
