@@ -830,6 +830,13 @@ def run_network(v0, ni, nk, start, off, idx, w, n_left, n_right, unique_w, bias,
     Stops when a whole sweep changed nothing (a fixed point), when ``stable_iterations``
     consecutive iterations changed nothing (if > 0), or after ``max_iterations``.
 
+    A visit reads only its neurons' fields, states and column counts and its row count; a
+    left point whose last visit changed nothing and none of whose inputs changed since is
+    *clean*, and its visit is counted without recomputing it (it would change nothing
+    again). A flip marks dirty the left points of its interaction partners (their fields)
+    and of the neurons in its column (their column count). States, iteration and sweep
+    counts and the energy trace are those of visiting every point in full.
+
     Returns ``(v, iterations, sweeps, converged, energy_trace)``; ``energy_trace[t]`` is the
     energy after iteration t (index 0: the start), empty unless ``record_energy``.
     """
@@ -844,6 +851,17 @@ def run_network(v0, ni, nk, start, off, idx, w, n_left, n_right, unique_w, bias,
             col[nk[p]] += 1
             for e in range(off[p], off[p + 1]):
                 field[idx[e]] += w[e]
+    col_start = np.zeros(n_right + 1, dtype=np.int64)  # the left points of each column
+    for p in range(n):
+        col_start[nk[p] + 1] += 1
+    for k in range(n_right):
+        col_start[k + 1] += col_start[k]
+    col_fill = col_start[:-1].copy()
+    col_left = np.empty(n, dtype=np.int64)
+    for p in range(n):
+        col_left[col_fill[nk[p]]] = ni[p]
+        col_fill[nk[p]] += 1
+    clean = np.zeros(n_left, dtype=np.uint8)
     n_active_left = 0
     for i in range(n_left):
         if start[i + 1] > start[i]:
@@ -872,23 +890,29 @@ def run_network(v0, ni, nk, start, off, idx, w, n_left, n_right, unique_w, bias,
                 break
             i = perm[t]
             changed = False
-            for p in range(start[i], start[i + 1]):
-                k = nk[p]
-                u = field[p] - unique_w * (row[i] - v[p] + col[k] - v[p]) + bias
-                new = v[p]
-                if u > 0.0:
-                    new = 1
-                elif u < 0.0:
-                    new = 0
-                if new != v[p]:
-                    dv = 1.0 if new == 1 else -1.0
-                    energy -= u * dv
-                    v[p] = new
-                    row[i] += 1 if new == 1 else -1
-                    col[k] += 1 if new == 1 else -1
-                    for e in range(off[p], off[p + 1]):
-                        field[idx[e]] += dv * w[e]
-                    changed = True
+            if not clean[i]:
+                for p in range(start[i], start[i + 1]):
+                    k = nk[p]
+                    u = field[p] - unique_w * (row[i] - v[p] + col[k] - v[p]) + bias
+                    new = v[p]
+                    if u > 0.0:
+                        new = 1
+                    elif u < 0.0:
+                        new = 0
+                    if new != v[p]:
+                        dv = 1.0 if new == 1 else -1.0
+                        energy -= u * dv
+                        v[p] = new
+                        row[i] += 1 if new == 1 else -1
+                        col[k] += 1 if new == 1 else -1
+                        for e in range(off[p], off[p + 1]):
+                            q = idx[e]
+                            field[q] += dv * w[e]
+                            clean[ni[q]] = 0
+                        for m in range(col_start[k], col_start[k + 1]):
+                            clean[col_left[m]] = 0
+                        changed = True
+                clean[i] = 0 if changed else 1
             iterations += 1
             if record_energy:
                 trace[iterations] = energy
