@@ -255,6 +255,20 @@ class TestCandidates:
         with pytest.raises(BudgetExceededError):
             candidate_pairs(left, right, 0.0, 15.0, 3.0, n - 1)
 
+    @pytest.mark.parametrize("seed", range(4))
+    def test_transposed_lists_equal_brute_force(self, seed):
+        """Any relation (not only a symmetric one), with unused room after the lists."""
+        rng = np.random.default_rng(seed)
+        n, n_out = int(rng.integers(1, 40)), int(rng.integers(1, 30))
+        lists = [sorted(rng.choice(n_out, int(rng.integers(0, n_out + 1)), replace=False))
+                 for _ in range(n)]
+        offsets = np.r_[0, np.cumsum([len(x) for x in lists])].astype(np.int64)
+        indices = np.r_[np.concatenate([np.asarray(x, np.int64) for x in lists] + [[]]),
+                        rng.integers(0, n_out, 5)].astype(np.int32)  # room left after them
+        off_t, out = _k.transposed_lists(offsets, indices, n_out)
+        got = [out[off_t[i]:off_t[i + 1]].tolist() for i in range(n_out)]
+        assert got == [[j for j in range(n) if i in lists[j]] for i in range(n_out)]
+
     @pytest.mark.parametrize("seed", [0, 3])
     @pytest.mark.parametrize("width,height", [(40.0, 20.0), (10.0, 4.0), (0.0, 0.0), (7.0, 3.0),
                                               (1000.0, 2.0), (3.0, 900.0)])

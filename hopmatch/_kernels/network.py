@@ -429,7 +429,7 @@ def neighbour_lists(points, half_w, half_h):
                 p += ((members[t] != i) & (abs(sx[t] - xi) <= half_w)
                       & (abs(sy[t] - yi) <= half_h))
         offsets[i + 1] = p
-    return offsets, transposed_lists(offsets, indices)
+    return offsets, transposed_lists(offsets, indices, n)[1]  # symmetric: same offsets
 
 
 @jit
@@ -463,19 +463,25 @@ def neighbour_lists_among(points, start, half_w, half_h):
 
 
 @jit
-def transposed_lists(offsets, indices):
-    """The transpose of CSR lists of a relation on ``n`` points (``indices`` may be longer
-    than ``offsets[n]``): list i of the result holds every j whose list holds i, in
-    increasing j. For a symmetric relation the lists are the same (same offsets), sorted."""
+def transposed_lists(offsets, indices, n_out):
+    """The transpose of CSR lists whose entries are in ``[0, n_out)`` (``indices`` may be
+    longer than ``offsets[-1]``): ``(offsets_t, out)``, list i of the result holding every j
+    whose list holds i, in increasing j. For a symmetric relation the lists are the same,
+    each sorted."""
     n = offsets.shape[0] - 1
-    fill = offsets[:-1].copy()
+    offsets_t = np.zeros(n_out + 1, dtype=np.int64)
+    for t in range(offsets[n]):
+        offsets_t[indices[t] + 1] += 1
+    for i in range(n_out):
+        offsets_t[i + 1] += offsets_t[i]
+    fill = offsets_t[:-1].copy()
     out = np.empty(offsets[n], dtype=np.int32)
     for j in range(n):
         for t in range(offsets[j], offsets[j + 1]):
             i = indices[t]
             out[fill[i]] = j
             fill[i] += 1
-    return out
+    return offsets_t, out
 
 
 @jit
@@ -851,16 +857,7 @@ def run_network(v0, ni, nk, start, off, idx, w, n_left, n_right, unique_w, bias,
             col[nk[p]] += 1
             for e in range(off[p], off[p + 1]):
                 field[idx[e]] += w[e]
-    col_start = np.zeros(n_right + 1, dtype=np.int64)  # the left points of each column
-    for p in range(n):
-        col_start[nk[p] + 1] += 1
-    for k in range(n_right):
-        col_start[k + 1] += col_start[k]
-    col_fill = col_start[:-1].copy()
-    col_left = np.empty(n, dtype=np.int64)
-    for p in range(n):
-        col_left[col_fill[nk[p]]] = ni[p]
-        col_fill[nk[p]] += 1
+    col_start, col_left = transposed_lists(start, nk, n_right)  # the left points of each column
     clean = np.zeros(n_left, dtype=np.uint8)
     n_active_left = 0
     for i in range(n_left):
