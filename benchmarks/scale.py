@@ -21,10 +21,10 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 
 CHILD = r"""
-import json, resource, sys, time
+import json, resource, sys
 sys.path.insert(0, {here!r})
 import cv2
-from _common import motorcycle_bgr, single_thread
+from _common import best_time, motorcycle_bgr, single_thread
 single_thread()
 import hopmatch
 left, right, _ = motorcycle_bgr()
@@ -34,22 +34,21 @@ mode, n = sys.argv[1], int(sys.argv[2])
 if mode == "sift":
     sift = cv2.SIFT_create()
     sift.detectAndCompute(left[:200, :200], None)
-    best = float("inf")
-    for _ in range(3):  # best of three, as for hopmatch below
-        t0 = time.perf_counter()
-        kl, _ = sift.detectAndCompute(left, None)
-        kr, _ = sift.detectAndCompute(right, None)
-        best = min(best, time.perf_counter() - t0)
-    out = dict(seconds=best, keypoints=(len(kl) + len(kr)) // 2)
+    found = {{}}
+    def both():
+        found["left"], _ = sift.detectAndCompute(left, None)
+        found["right"], _ = sift.detectAndCompute(right, None)
+    best = best_time(both, repeat=3, warmup=0)  # best of three, as for hopmatch below
+    out = dict(seconds=best, keypoints=(len(found["left"]) + len(found["right"])) // 2)
 else:
     hopmatch.warmup()
     params = dict(max_features=n, nms_size=3, max_disparity=260)
     hopmatch.match_stereo(left[:300, :400], right[:300, :400], **params)
-    best = float("inf")
-    for _ in range(3):
-        t0 = time.perf_counter()
-        res = hopmatch.match_stereo(left, right, **params)
-        best = min(best, time.perf_counter() - t0)
+    last = {{}}
+    def pair():
+        last["res"] = hopmatch.match_stereo(left, right, **params)
+    best = best_time(pair, repeat=3, warmup=0)
+    res = last["res"]
     out = dict(seconds=best,
                keypoints=(len(res.points_left) + len(res.points_right)) // 2,
                matches=int(len(res.query_idx)), neurons=int(len(res.network.neuron_left)),
