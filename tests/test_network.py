@@ -240,6 +240,48 @@ class TestCandidates:
         with pytest.raises(BudgetExceededError, match=f"would have {len(want)} neurons"):
             candidate_pairs(left, right, 0.0, 20.0, 2.0, len(want) - 1, f)
 
+    @pytest.mark.parametrize("max_entries", [1, 40, 10**4])
+    def test_row_buckets_bracket_every_x_range(self, max_entries):
+        """Every point of a row within [x_lo, x_hi] lies between the table entries of the
+        two end buckets, for any budget of entries (one bucket per row at the least) and
+        for queries far outside the points."""
+        from hopmatch.matching.network import _right_band_index
+        rng = np.random.default_rng(4)
+        pts = np.column_stack([np.round(rng.uniform(-40, 60, 300), 1),
+                               rng.integers(0, 12, 300)]).astype(np.float32)
+        rows, row_start, order, rx, ry = _right_band_index(pts)
+        table, x0, inv, nb = _k.row_buckets(row_start, rx, max_entries)
+        assert nb >= 1 and len(table) == len(rows) * (nb + 1)
+        table = table.reshape(len(rows), nb + 1)
+        assert (np.diff(table, axis=1) >= 0).all()
+        assert (table[:, 0] == row_start[:-1]).all() and (table[:, -1] == row_start[1:]).all()
+        queries = [-1e300, -41.0, -40.0, -3.3, 0.0, 12.25, 59.9, 60.0, 75.0, 1e300]
+        for x_lo in queries:
+            for x_hi in queries:
+                if x_hi < x_lo:
+                    continue
+                b_lo = _k._bucket(x_lo, x0, inv, nb)
+                b_hi = _k._bucket(x_hi, x0, inv, nb) + 1
+                for r in range(len(rows)):
+                    inside = [t for t in range(row_start[r], row_start[r + 1])
+                              if x_lo <= float(rx[t]) <= x_hi]
+                    assert all(table[r, b_lo] <= t < table[r, b_hi] for t in inside)
+
+    @pytest.mark.parametrize("dmin,dmax", [(0.0, 1e30), (-1e30, 1e30), (-5.0, 2.0)])
+    def test_extreme_ranges_and_spans_equal_brute_force(self, dmin, dmax):
+        """Disparity limits far beyond the points, a few points far from the others (a wide
+        x span, so wide buckets) and many rows give the brute-force pairs."""
+        left, right, _, _ = make_problem(2, 70, 80, width=60.0, height=2.0)
+        right[:, 1] = np.arange(len(right), dtype=np.float32) * 0.25  # 80 points, 40 rows
+        left[:, 1] = np.float32(8.0)
+        right[::20, 0] = np.float32([-1e5, 1e5, -3e4, 7e4])
+        left[::30, 0] = np.float32([1e5, -1e5, 5e4])
+        for l_, r_ in ((left, right), (right, left)):
+            ni, nk = candidate_pairs(l_, r_, dmin, dmax, 2.0, 10**6)
+            want = naive.candidate_pairs(l_, r_, dmin, dmax, 2.0)
+            assert len(want) > 0
+            assert list(zip(ni.tolist(), nk.tolist())) == want
+
     def test_limits_are_inclusive(self):
         left = np.array([[20, 10]], np.float32)
         right = np.array([[20, 10], [5, 10], [4, 10], [10, 8], [10, 7.5], [21, 10]], np.float32)

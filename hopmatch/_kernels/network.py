@@ -194,6 +194,65 @@ def group_by_left(ni, nk, values, n_left, gated, limit):
     return oi, ok, ov
 
 
+#: Entries the x-bucket table of :func:`row_buckets` may have per right point (plus
+#: ``BUCKET_SLACK``): memory stays linear in the number of points.
+BUCKETS_PER_POINT = 4
+BUCKET_SLACK = 1024
+
+
+@jit(exact=True)
+def _bucket(x, x0, inv, nb):
+    """``floor((x - x0) * inv)`` clamped to ``[0, nb - 1]``, clamped in float64 before the
+    conversion (so any x, however far out, is safe); monotonic in x. Compiled without
+    fastmath, so the table and the searches round it the same way."""
+    f = (x - x0) * inv
+    if f >= nb:
+        return nb - 1
+    if f > 0.0:
+        return np.int64(f)
+    return np.int64(0)
+
+
+@jit
+def row_buckets(row_start, rx, max_entries):
+    """An x-bucket table over rows of points sorted by x within each row, so that a search
+    for an x range needs no binary search: ``(table, x0, inv, nb)``, ``table[r * (nb + 1) +
+    b]`` the first offset t of row r (``row_start[r] <= t <= row_start[r + 1]``) whose
+    bucket ``_bucket(rx[t], x0, inv, nb)`` is at least b (the row's end if none).
+
+    Every point of row r with ``x_lo <= rx <= x_hi`` then lies in ``[table[r, bucket(x_lo)],
+    table[r, bucket(x_hi) + 1])`` (buckets are monotonic in x), a superset by at most the
+    points sharing the two end buckets. The ``nb`` buckets split the x span of all points
+    evenly; ``nb`` is as large as ``max_entries`` allows (at least 1).
+    """
+    nrows = row_start.shape[0] - 1
+    n = rx.shape[0]
+    x0 = 0.0
+    x1 = 0.0
+    for t in range(n):
+        x = np.float64(rx[t])
+        if t == 0 or x < x0:
+            x0 = x
+        if t == 0 or x > x1:
+            x1 = x
+    nb = np.int64(max(1, min(max_entries // max(nrows, 1) - 1, 1 << 24)))
+    inv = nb / (x1 - x0) if x1 > x0 else 0.0
+    stride = nb + 1
+    table = np.empty(max(nrows, 0) * stride, dtype=np.int64)
+    for r in range(nrows):
+        base = r * stride
+        b = 0
+        for t in range(row_start[r], row_start[r + 1]):
+            bt = _bucket(np.float64(rx[t]), x0, inv, nb)
+            while b <= bt:
+                table[base + b] = t
+                b += 1
+        while b < stride:
+            table[base + b] = row_start[r + 1]
+            b += 1
+    return table, x0, inv, nb
+
+
 @jit
 def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dmax, vmax,
                     max_neurons, scale_l, scale_r_sorted, gate, eps):
@@ -207,8 +266,10 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
     ``order`` the right points row by row with x increasing, ``row_start`` each row's
     offsets in it, and ``rx, ry`` the right points' coordinates in that order. Only the
     rows ``floor(yl - vmax) .. floor(yl + vmax)`` are visited, and in each row only the x
-    range of the disparity band (binary search, one pixel of slack for rounding): the cost
-    grows with the number of candidates, not with ``Nl x Nr``.
+    range of the disparity band (one pixel of slack for rounding), found in the x-bucket
+    table of :func:`row_buckets` without a search and scanned without branches (the exact
+    test keeps the pairs inside): the cost grows with the number of candidates, not with
+    ``Nl x Nr``.
 
     Pairs whose window contrasts alone put them past the similarity ``gate`` (eqs. 7-9:
     ``|s_i - s_k| > gate (0.5 (s_i + s_k) + eps)``, the lower bound
@@ -218,6 +279,9 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
     The output grows by doubling up to ``max_neurons`` entries; past that the pairs are only
     counted: ``n > max_neurons`` then says so, and ``ni``/``nk`` are empty.
     """
+    table, x0, inv, nb = row_buckets(row_start, rx,
+                                     BUCKETS_PER_POINT * rx.shape[0] + BUCKET_SLACK)
+    stride = nb + 1
     cap = min(max_neurons, 8 * left.shape[0] + 1024)
     ni = np.empty(cap, dtype=np.int32)
     nk = np.empty(cap, dtype=np.int32)
@@ -241,11 +305,11 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
             r_hi = _upper_bound(row_values, r_lo, row_values.shape[0], row_hi)
             last_lo = row_lo
             last_hi = row_hi
-        x_lo = np.float64(xl) - np.float64(dmax) - 1.0
-        x_hi = np.float64(xl) - np.float64(dmin) + 1.0
+        b_lo = _bucket(np.float64(xl) - np.float64(dmax) - 1.0, x0, inv, nb)
+        b_hi = _bucket(np.float64(xl) - np.float64(dmin) + 1.0, x0, inv, nb) + 1
         for r in range(r_lo, r_hi):
-            t0 = _lower_bound(rx, row_start[r], row_start[r + 1], x_lo)
-            t1 = _upper_bound(rx, t0, row_start[r + 1], x_hi)
+            t0 = table[r * stride + b_lo]
+            t1 = max(table[r * stride + b_hi], t0)
             need = p + (t1 - t0)
             if need > cap and cap < max_neurons:
                 cap = min(max(2 * cap, need), max_neurons)
