@@ -87,6 +87,16 @@ CASES = [
      lambda: hopmatch.deriche_gradient(np.full((9, 9), 3e38, np.float32) *
                                        (np.arange(9) % 2)[None, :].astype(np.float32)),
      InvalidArgumentError, r"`image`.*gradient overflows"),
+    # OpenCV's Deriche coefficients divide by sin(omega): omega = 0 gave NaN everywhere,
+    # and extreme parameters overflow them; the image is not to blame for either
+    ("detector-omega-zero", lambda: DericheMoravecDetector(omega=0.0), InvalidArgumentError,
+     r"`omega` must be a finite number in \(0.0, inf\], got 0.0"),
+    ("gradient-fn-omega-zero", lambda: hopmatch.deriche_gradient(IMG, omega=0),
+     InvalidArgumentError, r"`omega` must be a finite number in \(0.0"),
+    ("detector-alpha-extreme", lambda: DericheMoravecDetector(alpha=1e-300).detect(IMG),
+     InvalidArgumentError, r"non-finite values with alpha=1e-300 and omega=0.001"),
+    ("gradient-fn-alpha-extreme", lambda: hopmatch.deriche_gradient(IMG, alpha=1e-300),
+     InvalidArgumentError, r"non-finite values with alpha=1e-300"),
     ("image-pixel-budget", lambda: DericheMoravecDetector(max_pixels=100).detect(IMG),
      BudgetExceededError, r"`image` has 72 x 96 = 6912 pixels.*max_pixels=100.*max_pixels=6912"),
     ("match-stereo-pixel-budget",

@@ -51,7 +51,7 @@ class DericheMoravecDetector(Configurable):
     relative_threshold : float
         Threshold as a fraction of the image's largest V; the larger of the two applies.
     alpha, omega : float
-        Canny-Deriche filter parameters (``cv2.ximgproc.GradientDericheX/Y``).
+        Canny-Deriche filter parameters (``cv2.ximgproc.GradientDericheX/Y``), both > 0.
     on : {'gradient', 'intensity'}
         Measure V (and cut descriptors) on the gradient magnitude, as the paper does, or
         on grey levels.
@@ -92,7 +92,7 @@ class DericheMoravecDetector(Configurable):
         Param("threshold", 1e-3, real(0.0)),
         Param("relative_threshold", 0.0, real(0.0, 1.0)),
         Param("alpha", 1.0, real(0.0, lo_open=True)),
-        Param("omega", 0.001, real(0.0)),
+        Param("omega", 0.001, real(0.0, lo_open=True)),
         Param("on", "gradient", choice("gradient", "intensity")),
         Param("max_features", 0, integer(0)),
         Param("subpixel", True, boolean()),
@@ -121,7 +121,8 @@ class DericheMoravecDetector(Configurable):
     def _feature_image(self, gray: np.ndarray, name: str = "image") -> np.ndarray:
         p = self._params
         if p["on"] == "gradient":
-            return check_finite_gradient(_deriche(gray, p["alpha"], p["omega"]), gray, name)
+            return check_finite_gradient(_deriche(gray, p["alpha"], p["omega"]), gray, name,
+                                         alpha=p["alpha"], omega=p["omega"])
         return gray.astype(np.float32)
 
     def detect_points(self, image, mask=None):

@@ -22,7 +22,8 @@ def deriche_gradient(image, alpha: float = 1.0, omega: float = 0.001) -> np.ndar
     alpha : float
         Deriche's smoothing parameter (> 0); larger values smooth less.
     omega : float
-        Deriche's frequency parameter (>= 0).
+        Deriche's frequency parameter (> 0: OpenCV's coefficients divide by ``sin(omega)``,
+        so 0 would give NaN everywhere).
 
     Returns
     -------
@@ -44,20 +45,30 @@ def deriche_gradient(image, alpha: float = 1.0, omega: float = 0.001) -> np.ndar
     """
     gray = as_gray_image(image)
     alpha = real(0.0, lo_open=True)("alpha", alpha)
-    omega = real(0.0)("omega", omega)
-    return check_finite_gradient(_deriche(gray, alpha, omega), gray)
+    omega = real(0.0, lo_open=True)("omega", omega)
+    return check_finite_gradient(_deriche(gray, alpha, omega), gray, alpha=alpha, omega=omega)
 
 
-def check_finite_gradient(g: np.ndarray, gray: np.ndarray, name: str = "image") -> np.ndarray:
-    """Return ``g``, or raise when the float32 filter overflowed (pixels near the float32
-    limit make Gx, Gy or their magnitude infinite): the rest of the pipeline would only see
-    NaN."""
+def check_finite_gradient(g: np.ndarray, gray: np.ndarray, name: str = "image", *,
+                          alpha: float, omega: float) -> np.ndarray:
+    """Return ``g``, or raise when it is not finite: the rest of the pipeline would only
+    see NaN. An integer image cannot overflow the filter, so there the parameters are to
+    blame (an extreme ``alpha`` or ``omega`` makes OpenCV's coefficients infinite or NaN);
+    a float image may also hold pixels near the float32 limit that make Gx, Gy or their
+    magnitude infinite."""
     if not np.isfinite(g).all():
+        if np.issubdtype(gray.dtype, np.integer):
+            raise InvalidArgumentError(
+                f"the Canny-Deriche filter gives non-finite values with alpha={alpha!r} and "
+                f"omega={omega!r}: OpenCV's coefficients overflow at such values; use "
+                "values near the defaults (alpha 1.0, omega 0.001)"
+            )
         big = float(np.abs(gray).max())
         raise InvalidArgumentError(
             f"`{name}` is too large for the float32 gradient filter (largest |pixel| "
             f"{big:.3g}): its gradient overflows; rescale it first, e.g. "
-            "image / np.abs(image).max()"
+            f"image / np.abs(image).max() (or, if it is not large, the filter parameters "
+            f"alpha={alpha!r}, omega={omega!r} are too extreme)"
         )
     return g
 
