@@ -84,6 +84,28 @@ def test_detect_matches_the_pure_functions(textured):
     np.testing.assert_array_equal([k.response for k in kps], resp)
 
 
+@pytest.mark.parametrize("alpha", [0.5, 1.0, 2.0])
+def test_gradient_border_is_no_edge_and_equals_a_wide_border(textured, alpha):
+    """The mirrored border (``border_width``) leaves the recursive filter's start-up below
+    0.01 of G: a flat white image stays flat up to its edges (with no border the filter puts
+    edges of about 150 there), and a textured image's gradient equals the one computed with
+    an 80-px border to within 0.01."""
+    flat = np.full((40, 50), 255, np.uint8)
+    assert hopmatch.deriche_gradient(flat, alpha).max() < 0.01
+    bare = cv2.magnitude(cv2.ximgproc.GradientDericheX(flat, alpha, 0.001),
+                         cv2.ximgproc.GradientDericheY(flat, alpha, 0.001))
+    assert bare.max() > 50  # the test is not vacuous: without the border, strong edges
+
+    def wide(img, b=80):
+        p = cv2.copyMakeBorder(img, b, b, b, b, cv2.BORDER_REFLECT)
+        return cv2.magnitude(cv2.ximgproc.GradientDericheX(p, alpha, 0.001),
+                             cv2.ximgproc.GradientDericheY(p, alpha, 0.001))[b:-b, b:-b]
+
+    g = hopmatch.deriche_gradient(textured, alpha)
+    assert g.max() > 10
+    np.testing.assert_allclose(g, wide(textured), rtol=0, atol=0.01)
+
+
 def test_gaussian_window_matches_the_pure_functions(textured):
     det = DericheMoravecDetector(window_sigma=0.85)
     assert det.getWindowSigma() == 0.85 and DericheMoravecDetector().getWindowSigma() == 0.0

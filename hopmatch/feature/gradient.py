@@ -32,8 +32,8 @@ def deriche_gradient(image, alpha: float = 1.0, omega: float = 0.001) -> np.ndar
     Notes
     -----
     Computed with ``cv2.ximgproc.GradientDericheX`` / ``GradientDericheY`` and
-    ``cv2.magnitude`` on the image mirrored by ``ceil(20 / alpha)`` pixels (at most 256),
-    so that the image border is not taken for an edge.
+    ``cv2.magnitude`` on the image mirrored by ``ceil(14 / alpha)`` pixels (at most 256),
+    so that the image border is not taken for an edge (:func:`border_width`).
 
     Examples
     --------
@@ -73,11 +73,21 @@ def check_finite_gradient(g: np.ndarray, gray: np.ndarray, name: str = "image", 
     return g
 
 
+#: ``alpha`` times the width of the mirrored border (:func:`border_width`).
+BORDER_DECAY = 14.0
+
+
 def border_width(alpha: float) -> int:
-    """Pixels of mirrored border that make the recursive filter's start-up negligible: its
-    impulse response decays about as ``(1 + alpha n) exp(-alpha n)``; 20 / alpha leaves
-    less than 1e-7 of it."""
-    return min(int(math.ceil(20.0 / alpha)), 256)
+    """Pixels of mirrored border that make the recursive filter's start-up negligible.
+
+    Its impulse response decays about as ``(1 + alpha n) exp(-alpha n)``: ``ceil(14 /
+    alpha)`` pixels leave 1.2e-5 of it, at most 0.006 of G along the border of a flat 255
+    image (about 150 with no border; the detector's threshold on V, 1e-3, is far above what
+    that leaves). The filter's cost grows with the padded area, so the border is no wider:
+    20 / alpha (1e-7) filtered 3.7 % more pixels on motorcycle for the same matches on all
+    13 scenes of ``benchmarks/tune.py``.
+    """
+    return min(int(math.ceil(BORDER_DECAY / alpha)), 256)
 
 
 def _deriche(gray: np.ndarray, alpha: float, omega: float) -> np.ndarray:
