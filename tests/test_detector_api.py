@@ -91,7 +91,10 @@ def test_gradient_border_is_no_edge_and_equals_a_wide_border(textured, alpha):
     edges of about 150 there), and a textured image's gradient equals the one computed with
     an 80-px border to within 0.01."""
     flat = np.full((40, 50), 255, np.uint8)
-    assert hopmatch.deriche_gradient(flat, alpha).max() < 0.01
+    g_flat = hopmatch.deriche_gradient(flat, alpha)
+    assert g_flat.max() < 0.01
+    assert hopmatch.moravec_response(g_flat, 3).max() < 1e-6  # threshold: 1e-3
+    assert DericheMoravecDetector(alpha=alpha).detect(flat) == ()
     bare = cv2.magnitude(cv2.ximgproc.GradientDericheX(flat, alpha, 0.001),
                          cv2.ximgproc.GradientDericheY(flat, alpha, 0.001))
     assert bare.max() > 50  # the test is not vacuous: without the border, strong edges

@@ -82,10 +82,10 @@ def border_width(alpha: float) -> int:
 
     Its impulse response decays about as ``(1 + alpha n) exp(-alpha n)``: ``ceil(14 /
     alpha)`` pixels leave 1.2e-5 of it, at most 0.006 of G along the border of a flat 255
-    image (about 150 with no border; the detector's threshold on V, 1e-3, is far above what
-    that leaves). The filter's cost grows with the padded area, so the border is no wider:
-    20 / alpha (1e-7) filtered 3.7 % more pixels on motorcycle for the same matches on all
-    13 scenes of ``benchmarks/tune.py``.
+    image (about 150 with no border), and a Moravec response V below 1e-6 there, far under
+    the detector's threshold of 1e-3. The filter's cost grows with the padded area, so the
+    border is no wider: 20 / alpha (1e-7) filtered 3.7 % more pixels on motorcycle for the
+    same matches on all 13 scenes of ``benchmarks/tune.py``.
     """
     return min(int(math.ceil(BORDER_DECAY / alpha)), 256)
 
