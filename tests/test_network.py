@@ -282,6 +282,26 @@ class TestCandidates:
             assert len(want) > 0
             assert list(zip(ni.tolist(), nk.tolist())) == want
 
+    def test_crowded_buckets_equal_brute_force(self):
+        """One far-out right point makes the buckets ~1e4 px wide, so all the others crowd
+        into one bucket per row, far more than BUCKET_SCAN_MAX: the search narrows them and
+        still gives every pair of a narrow band."""
+        rng = np.random.default_rng(12)
+        right = np.column_stack([rng.uniform(0, 200, 600), rng.integers(0, 3, 600)])
+        right[0] = (1e6, 1.0)
+        left = np.column_stack([rng.uniform(0, 200, 80), rng.integers(0, 3, 80) + 0.5])
+        left, right = left.astype(np.float32), right.astype(np.float32)
+        from hopmatch.matching.network import _right_band_index
+        _, row_start, _, rx, _ = _right_band_index(right)
+        table, _, _, nb = _k.row_buckets(
+            row_start, rx, _k.BUCKETS_PER_POINT * len(right) + _k.BUCKET_SLACK)
+        assert np.diff(table.reshape(-1, nb + 1), axis=1).max() > _k.BUCKET_SCAN_MAX
+        for dmin, dmax in ((0.0, 3.0), (-2.0, 0.5), (0.0, 150.0)):
+            ni, nk = candidate_pairs(left, right, dmin, dmax, 1.0, 10**6)
+            want = naive.candidate_pairs(left, right, dmin, dmax, 1.0)
+            assert len(want) > 0
+            assert list(zip(ni.tolist(), nk.tolist())) == want
+
     def test_limits_are_inclusive(self):
         left = np.array([[20, 10]], np.float32)
         right = np.array([[20, 10], [5, 10], [4, 10], [10, 8], [10, 7.5], [21, 10]], np.float32)

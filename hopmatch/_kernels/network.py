@@ -198,6 +198,9 @@ def group_by_left(ni, nk, values, n_left, gated, limit):
 #: ``BUCKET_SLACK``): memory stays linear in the number of points.
 BUCKETS_PER_POINT = 4
 BUCKET_SLACK = 1024
+#: Longest bucket range :func:`band_candidates` scans as it is; longer ones (crowded
+#: buckets: most points in a few of them) are narrowed by binary search first.
+BUCKET_SCAN_MAX = 64
 
 
 @jit(exact=True)
@@ -268,8 +271,9 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
     rows ``floor(yl - vmax) .. floor(yl + vmax)`` are visited, and in each row only the x
     range of the disparity band (one pixel of slack for rounding), found in the x-bucket
     table of :func:`row_buckets` without a search and scanned without branches (the exact
-    test keeps the pairs inside): the cost grows with the number of candidates, not with
-    ``Nl x Nr``.
+    test keeps the pairs inside); a range longer than ``BUCKET_SCAN_MAX`` points (crowded
+    buckets) is narrowed by binary search first. The cost grows with the number of
+    candidates, not with ``Nl x Nr``, however the points are spread.
 
     Pairs whose window contrasts alone put them past the similarity ``gate`` (eqs. 7-9:
     ``|s_i - s_k| > gate (0.5 (s_i + s_k) + eps)``, the lower bound
@@ -305,11 +309,16 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
             r_hi = _upper_bound(row_values, r_lo, row_values.shape[0], row_hi)
             last_lo = row_lo
             last_hi = row_hi
-        b_lo = _bucket(np.float64(xl) - np.float64(dmax) - 1.0, x0, inv, nb)
-        b_hi = _bucket(np.float64(xl) - np.float64(dmin) + 1.0, x0, inv, nb) + 1
+        x_lo = np.float64(xl) - np.float64(dmax) - 1.0
+        x_hi = np.float64(xl) - np.float64(dmin) + 1.0
+        b_lo = _bucket(x_lo, x0, inv, nb)
+        b_hi = _bucket(x_hi, x0, inv, nb) + 1
         for r in range(r_lo, r_hi):
             t0 = table[r * stride + b_lo]
             t1 = max(table[r * stride + b_hi], t0)
+            if t1 - t0 > BUCKET_SCAN_MAX:
+                t0 = _lower_bound(rx, t0, t1, x_lo)
+                t1 = _upper_bound(rx, t0, t1, x_hi)
             need = p + (t1 - t0)
             if need > cap and cap < max_neurons:
                 cap = min(max(2 * cap, need), max_neurons)
