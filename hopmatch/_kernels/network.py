@@ -241,7 +241,7 @@ def row_buckets(row_start, rx, max_entries):
     nb = np.int64(max(1, min(max_entries // max(nrows, 1) - 1, 1 << 24)))
     inv = nb / (x1 - x0) if x1 > x0 else 0.0
     stride = nb + 1
-    table = np.empty(max(nrows, 0) * stride, dtype=np.int64)
+    table = np.empty(nrows * stride, dtype=np.int64)
     for r in range(nrows):
         base = r * stride
         b = 0
@@ -254,6 +254,23 @@ def row_buckets(row_start, rx, max_entries):
             table[base + b] = row_start[r + 1]
             b += 1
     return table, x0, inv, nb
+
+
+@jit
+def similarity_norm(s_i, s_k, eps):
+    """The normalisation of eq. 7's ``M_ik`` by the window contrasts ``s_i, s_k``
+    (``mean |V|``): ``0.5 (s_i + s_k) + eps``."""
+    return 0.5 * (s_i + s_k) + eps
+
+
+@jit
+def contrast_admits(s_i, s_k, norm, gate):
+    """Whether the window contrasts ``s_i, s_k`` leave the pair within the similarity
+    ``gate`` (``norm`` = :func:`similarity_norm`): ``|s_i - s_k|`` is a lower bound of
+    ``M_ik`` (eq. 7, triangle inequality), so a pair with ``|s_i - s_k| > gate * norm`` (a
+    margin of 1e-6 for rounding) is certainly past the gate of the normalised distance. The
+    one rule :func:`band_candidates` and :func:`normalised_difference` both apply."""
+    return abs(s_i - s_k) <= gate * norm * (1.0 + 1e-6)
 
 
 @jit
@@ -275,11 +292,11 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
     buckets) is narrowed by binary search first. The cost grows with the number of
     candidates, not with ``Nl x Nr``, however the points are spread.
 
-    Pairs whose window contrasts alone put them past the similarity ``gate`` (eqs. 7-9:
-    ``|s_i - s_k| > gate (0.5 (s_i + s_k) + eps)``, the lower bound
-    :func:`normalised_difference` skips) are not written; ``scale_r_sorted`` is
-    ``scale_r[order]``. Pass zero scales and ``gate = inf`` to keep every pair. ``n``
-    counts every pair of the band all the same (the ``max_neurons`` budget is on the band).
+    Pairs whose window contrasts alone put them past the similarity ``gate``
+    (:func:`contrast_admits`, the bound :func:`normalised_difference` skips by) are not
+    written; ``scale_r_sorted`` is ``scale_r[order]``. Pass zero scales and ``gate = inf``
+    to keep every pair. ``n`` counts every pair of the band all the same (the
+    ``max_neurons`` budget is on the band).
     The output grows by doubling up to ``max_neurons`` entries; past that the pairs are only
     counted: ``n > max_neurons`` then says so, and ``ni``/``nk`` are empty.
     """
@@ -328,18 +345,18 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
                 for t in range(t0, t1):
                     d = xl - rx[t]
                     inside = (d >= dmin) & (d <= dmax) & (ry[t] >= y_lo) & (ry[t] <= y_hi)
-                    norm = 0.5 * (sl + scale_r_sorted[t]) + eps
+                    sr = scale_r_sorted[t]
                     ni[p] = i
                     nk[p] = order[t]
                     n += inside
-                    p += inside & (abs(sl - scale_r_sorted[t]) <= gate * norm * (1.0 + 1e-6))
+                    p += inside & contrast_admits(sl, sr, similarity_norm(sl, sr, eps), gate)
             else:  # near the budget: write while there is room, then only count
                 for t in range(t0, t1):
                     d = xl - rx[t]
                     if d >= dmin and d <= dmax and ry[t] >= y_lo and ry[t] <= y_hi:
                         n += 1
-                        norm = 0.5 * (sl + scale_r_sorted[t]) + eps
-                        if abs(sl - scale_r_sorted[t]) <= gate * norm * (1.0 + 1e-6):
+                        sr = scale_r_sorted[t]
+                        if contrast_admits(sl, sr, similarity_norm(sl, sr, eps), gate):
                             if p < cap:
                                 ni[p] = i
                                 nk[p] = order[t]
@@ -627,9 +644,9 @@ def normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, eps, gate):
     (:func:`row_mean_abs`).
 
     Pairs whose value certainly exceeds ``gate`` (pass ``inf`` for none) get ``inf``
-    without the sum: ``|s_i - s_k|`` is a lower bound of ``M_ik`` (triangle inequality),
-    with a margin for rounding. Every other value is computed in full, so the gate keeps
-    exactly the pairs it would keep otherwise.
+    without the sum: their contrasts alone put them past it (:func:`contrast_admits`, a
+    lower bound of ``M_ik`` with a margin for rounding). Every other value is computed in
+    full, so the gate keeps exactly the pairs it would keep otherwise.
     """
     n = ni.shape[0]
     dim = desc_l.shape[1]
@@ -637,8 +654,8 @@ def normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, eps, gate):
     for p in range(n):
         i = ni[p]
         k = nk[p]
-        norm = 0.5 * (scale_l[i] + scale_r[k]) + eps
-        if abs(scale_l[i] - scale_r[k]) > gate * norm * (1.0 + 1e-6):
+        norm = similarity_norm(scale_l[i], scale_r[k], eps)
+        if not contrast_admits(scale_l[i], scale_r[k], norm, gate):
             out[p] = np.inf
             continue
         a = desc_l[i]
