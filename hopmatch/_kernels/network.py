@@ -297,22 +297,54 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
     written; ``scale_r_sorted`` is ``scale_r[order]``. Pass zero scales and ``gate = inf``
     to keep every pair. ``n`` counts every pair of the band all the same (the
     ``max_neurons`` budget is on the band).
-    The output grows by doubling up to ``max_neurons`` entries; past that the pairs are only
-    counted: ``n > max_neurons`` then says so, and ``ni``/``nk`` are empty.
+
+    The search itself is :func:`_band_scan`; here the output grows by doubling up to
+    ``max_neurons`` entries whenever a left point's pairs would not fit. Past that the
+    pairs are only counted: ``n > max_neurons`` then says so, and ``ni``/``nk`` are empty.
     """
     table, x0, inv, nb = row_buckets(row_start, rx,
                                      BUCKETS_PER_POINT * rx.shape[0] + BUCKET_SLACK)
-    stride = nb + 1
     cap = min(max_neurons, 8 * left.shape[0] + 1024)
     ni = np.empty(cap, dtype=np.int32)
     nk = np.empty(cap, dtype=np.int32)
+    q = 0  # left points searched (in visit order)
     p = 0  # pairs written
     n = 0  # pairs in the band
+    while q < visit.shape[0]:
+        q, p, n = _band_scan(left, visit, q, row_values, table, x0, inv, nb, order, rx, ry,
+                             dmin, dmax, vmax, scale_l, scale_r_sorted, gate, eps, ni, nk,
+                             p, n, cap < max_neurons)
+        if q < visit.shape[0]:  # left point q did not fit: grow, then resume at it
+            cap = min(2 * cap, max_neurons)
+            ni = _grown(ni, p, cap)
+            nk = _grown(nk, p, cap)
+    if n > max_neurons:
+        return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), n
+    return ni[:p].copy(), nk[:p].copy(), n
+
+
+@jit
+def _band_scan(left, visit, q0, row_values, table, x0, inv, nb, order, rx, ry, dmin, dmax,
+               vmax, scale_l, scale_r_sorted, gate, eps, ni, nk, p, n, may_grow):
+    """The search of :func:`band_candidates` from ``visit[q0]`` on, into ``ni``/``nk``
+    (``p`` pairs written and ``n`` counted so far): returns ``(q, p, n)``.
+
+    With ``may_grow``, it stops at the first left point q whose bucket ranges would not fit
+    in the room left, before writing any of its pairs (``p``, ``n`` as they were before it),
+    so that the caller can grow the arrays and resume at q. Without, it writes while there
+    is room and then only counts, to the end (``q = len(visit)``).
+
+    The arrays are arguments, never rebound here: rebinding them in the loop (as growing
+    them in place would) made the whole search about a quarter slower (1.70 -> 1.33 ms on
+    motorcycle's 138 868 band pairs).
+    """
+    stride = nb + 1
+    cap = ni.shape[0]
     last_lo = np.int64(0)
     last_hi = np.int64(-1)
     r_lo = 0
     r_hi = 0
-    for q in range(visit.shape[0]):
+    for q in range(q0, visit.shape[0]):
         i = visit[q]
         xl = left[i, 0]
         yl = left[i, 1]
@@ -330,18 +362,15 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
         x_hi = np.float64(xl) - np.float64(dmin) + 1.0
         b_lo = _bucket(x_lo, x0, inv, nb)
         b_hi = _bucket(x_hi, x0, inv, nb) + 1
+        p_before = p
+        n_before = n
         for r in range(r_lo, r_hi):
             t0 = table[r * stride + b_lo]
             t1 = max(table[r * stride + b_hi], t0)
             if t1 - t0 > BUCKET_SCAN_MAX:
                 t0 = _lower_bound(rx, t0, t1, x_lo)
                 t1 = _upper_bound(rx, t0, t1, x_hi)
-            need = p + (t1 - t0)
-            if need > cap and cap < max_neurons:
-                cap = min(max(2 * cap, need), max_neurons)
-                ni = _grown(ni, p, cap)
-                nk = _grown(nk, p, cap)
-            if need <= cap:  # room for every pair of the segment: write without branches
+            if p + (t1 - t0) <= cap:  # room for every pair of the segment: no branches
                 for t in range(t0, t1):
                     d = xl - rx[t]
                     inside = (d >= dmin) & (d <= dmax) & (ry[t] >= y_lo) & (ry[t] <= y_hi)
@@ -350,7 +379,9 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
                     nk[p] = order[t]
                     n += inside
                     p += inside & contrast_admits(sl, sr, similarity_norm(sl, sr, eps), gate)
-            else:  # near the budget: write while there is room, then only count
+            elif may_grow:
+                return q, p_before, n_before
+            else:  # at the budget: write while there is room, then only count
                 for t in range(t0, t1):
                     d = xl - rx[t]
                     if d >= dmin and d <= dmax and ry[t] >= y_lo and ry[t] <= y_hi:
@@ -361,9 +392,7 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
                                 ni[p] = i
                                 nk[p] = order[t]
                             p += 1
-    if n > max_neurons:
-        return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), n
-    return ni[:p].copy(), nk[:p].copy(), n
+    return visit.shape[0], p, n
 
 
 @jit
