@@ -27,16 +27,24 @@ def best_time(fn, repeat: int = 7, warmup: int = 1) -> float:
     return min(times)
 
 
-def best_times_interleaved(fns: dict, repeat: int = 7, warmup: int = 1) -> dict:
+def best_times_interleaved(fns: dict, repeat: int = 7, warmup: int = 1, settle: int = 0) -> dict:
     """Best wall time of each function, in seconds, over ``repeat`` rounds that run every
     function once in turn: a machine that speeds up or slows down during the benchmark
-    then affects every method alike, and the ratios stay fair."""
+    then affects every method alike, and the ratios stay fair.
+
+    ``settle``: untimed calls of each function right before each of its timed calls, so
+    that every function is timed in the state its own previous call leaves (caches, the
+    allocator's free memory), as when it runs alone, and not in the state the function
+    before it in the round leaves (after SIFT's large buffers, for instance, the next
+    call of another pipeline page-faults its memory in again)."""
     for _ in range(warmup):
         for fn in fns.values():
             fn()
     best = {name: float("inf") for name in fns}
     for _ in range(repeat):
         for name, fn in fns.items():
+            for _ in range(settle):
+                fn()
             t0 = time.perf_counter()
             fn()
             best[name] = min(best[name], time.perf_counter() - t0)

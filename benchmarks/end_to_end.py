@@ -1,8 +1,11 @@
 """End-to-end speed on motorcycle: detect left, detect right, match.
 
-Run: ``python benchmarks/end_to_end.py`` (single thread; prints a Markdown table; hopmatch
-and ORB are timed in interleaved rounds, best of 15 each, so that a drifting machine
-affects both alike; SIFT, ten times slower, best of 5);
+Run: ``python benchmarks/end_to_end.py`` (single thread; prints a Markdown table; every
+pipeline is timed in the same 15 interleaved rounds, best of 15 each, so that a drifting
+machine affects them all alike; each timed call right after an untimed call of the same
+pipeline, so that each is timed as it runs on its own, not in the caches and memory the
+pipeline before it left (after SIFT's large buffers, the next call of another pipeline
+page-faults its memory in again));
 ``--profile`` also prints where hopmatch's time goes (cProfile over 20 pairs: the functions
 and kernels with the most time of their own, per pair).
 
@@ -23,7 +26,6 @@ import cv2
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import (  # noqa: E402
-    best_time,
     best_times_interleaved,
     machine,
     motorcycle_bgr,
@@ -58,9 +60,9 @@ def main() -> None:
         "hop": lambda: hopmatch.match_stereo(gl, gr),
         "hop_kp": lambda: hopmatch.match_stereo(gl, gr).matches,
         "orb": lambda: orb(gl, gr),
-    }, repeat=15)
-    t_hop, t_hop_kp, t_orb = times["hop"], times["hop_kp"], times["orb"]
-    t_sift = best_time(lambda: sift(gl, gr), repeat=5)
+        "sift": lambda: sift(gl, gr),
+    }, repeat=15, settle=1)
+    t_hop, t_hop_kp, t_orb, t_sift = times["hop"], times["hop_kp"], times["orb"], times["sift"]
     res = hopmatch.match_stereo(gl, gr)
     print(f"Machine: {machine()}\n")
     print(f"## End to end on motorcycle ({gl.shape[1]}x{gl.shape[0]}, grey), single thread\n")
