@@ -228,6 +228,10 @@ def _select_points(v, nms_size, threshold, relative_threshold, margin, max_featu
     if mask is not None and len(yx):
         keep = mask[yx[:, 0], yx[:, 1]]
         pts, resp = np.compress(keep, pts, axis=0), resp[keep]
+    # Strongest first is more than cv2's convention here: the network updates a left
+    # point's neurons in increasing right index, so on a tie the stronger right point
+    # switches on first. Raster order (row by row) was tried for its faster memory access
+    # and let off-row look-alikes win on the chessboards of examples/stereo_calibration.py.
     order = strongest_first(resp)
     if max_features:
         order = order[:max_features]
