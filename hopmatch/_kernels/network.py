@@ -990,7 +990,7 @@ def run_network(v0, ni, nk, start, off, idx, w, n_left, n_right, unique_w, bias,
             perm[c] = i
             c += 1
     trace = np.empty(max_iterations + 1 if record_energy else 0, dtype=np.float64)
-    energy = 0.0  # tracked only for the trace: the start's costs a pass over the interactions
+    energy = 0.0  # tracked only for the trace (the starting value costs a pass over the state)
     if record_energy:
         energy = network_energy(v, ni, nk, off, idx, w, row, col, unique_w, bias)
         trace[0] = energy
