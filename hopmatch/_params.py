@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numbers
 import os
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +17,8 @@ from typing import Any
 
 import cv2
 
+from ._files import atomic_path
+from ._validate import as_int, as_real
 from .errors import InvalidArgumentError, InvalidTypeError
 
 _NONE_MARK = "__none__"
@@ -42,37 +43,17 @@ def camel(name: str) -> str:
 
 
 def integer(lo: int | None = None, hi: int | None = None, *, odd: bool = False, optional=False):
+    """A parameter check: an integer in ``[lo, hi]`` (and int64), see :func:`as_int`."""
     def check(name, value):
-        if value is None and optional:
-            return None
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-            raise InvalidTypeError(f"`{name}` must be an integer, got {type(value).__name__} {value!r}")
-        value = int(value)
-        if (lo is not None and value < lo) or (hi is not None and value > hi):
-            rng = f"[{lo if lo is not None else '-inf'}, {hi if hi is not None else 'inf'}]"
-            raise InvalidArgumentError(f"`{name}` must be in {rng}, got {value}")
-        if odd and value % 2 == 0:
-            raise InvalidArgumentError(f"`{name}` must be odd, got {value}")
-        return value
+        return as_int(value, name, lo=lo, hi=hi, odd=odd, optional=optional)
 
     return check
 
 
 def real(lo=None, hi=None, *, lo_open=False, optional=False):
+    """A parameter check: a finite number in ``[lo, hi]``, see :func:`as_real`."""
     def check(name, value):
-        if value is None and optional:
-            return None
-        if isinstance(value, bool) or not isinstance(value, numbers.Real):
-            raise InvalidTypeError(f"`{name}` must be a number, got {type(value).__name__} {value!r}")
-        value = float(value)
-        bad = value != value or value in (float("inf"), float("-inf"))
-        bad = bad or (lo is not None and (value <= lo if lo_open else value < lo))
-        bad = bad or (hi is not None and value > hi)
-        if bad:
-            left = "(" if lo_open else "["
-            rng = f"{left}{lo if lo is not None else '-inf'}, {hi if hi is not None else 'inf'}]"
-            raise InvalidArgumentError(f"`{name}` must be a finite number in {rng}, got {value}")
-        return value
+        return as_real(value, name, lo=lo, hi=hi, lo_open=lo_open, optional=optional)
 
     return check
 
@@ -174,16 +155,10 @@ class Configurable:
                 )
             if not path.parent.is_dir():
                 raise InvalidArgumentError(f"`fs`: folder {str(path.parent)!r} does not exist")
-            fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-            os.close(fd)
-            try:
-                out = cv2.FileStorage(tmp, cv2.FILE_STORAGE_WRITE)
+            with atomic_path(path, "fs") as tmp:
+                out = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
                 self._write_node(out, node)
                 out.release()
-                os.replace(tmp, path)
-            finally:
-                if os.path.exists(tmp):
-                    os.unlink(tmp)
             return
         if not isinstance(fs, cv2.FileStorage):
             raise InvalidTypeError(f"`fs` must be a path or a cv2.FileStorage, got {type(fs).__name__}")

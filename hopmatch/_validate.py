@@ -68,7 +68,7 @@ def check_pixel_budget(shape, max_pixels: int | None, name: str = "image") -> No
         )
 
 
-def _describe(value) -> str:
+def describe(value) -> str:
     if isinstance(value, np.ndarray):
         return f"an array of shape {value.shape} and dtype {value.dtype}"
     return f"{type(value).__name__} {value!r}"[:120]
@@ -85,7 +85,7 @@ def as_gray_image(image, name: str = "image", max_pixels: int | None = None) -> 
     """
     if not isinstance(image, np.ndarray):
         raise InvalidTypeError(
-            f"`{name}` must be a numpy array (as returned by cv2.imread), got {_describe(image)}"
+            f"`{name}` must be a numpy array (as returned by cv2.imread), got {describe(image)}"
         )
     if image.dtype == np.bool_ or image.dtype.type not in IMAGE_DTYPES:
         raise InvalidTypeError(
@@ -132,7 +132,7 @@ def as_mask(mask, shape: tuple[int, int], name: str = "mask", *,
     if mask is None:
         return None
     if not isinstance(mask, np.ndarray):
-        raise InvalidTypeError(f"`{name}` must be a numpy array or None, got {_describe(mask)}")
+        raise InvalidTypeError(f"`{name}` must be a numpy array or None, got {describe(mask)}")
     if mask.dtype not in (np.uint8, np.bool_):
         raise InvalidTypeError(
             f"`{name}` must have dtype uint8 or bool, got {mask.dtype}; convert it with "
@@ -169,7 +169,7 @@ def as_points(points, name: str) -> np.ndarray:
         if isinstance(points, (str, bytes)) or points is None:
             raise InvalidTypeError(
                 f"`{name}` must be a sequence of cv2.KeyPoint or an (N, 2) array, got "
-                f"{_describe(points)}"
+                f"{describe(points)}"
             )
         try:
             arr = np.asarray(points)
@@ -215,7 +215,7 @@ def check_coordinate_range(points: np.ndarray, name: str, limit: float = MAX_COO
 def as_descriptors(desc, name: str) -> np.ndarray:
     """Return descriptors as a C-contiguous 2-D array (float32, or uint8 for binary ones)."""
     if not isinstance(desc, np.ndarray):
-        raise InvalidTypeError(f"`{name}` must be a numpy array, got {_describe(desc)}")
+        raise InvalidTypeError(f"`{name}` must be a numpy array, got {describe(desc)}")
     if desc.ndim == 1 and desc.size == 0:
         desc = desc.reshape(0, 0)
     if desc.ndim != 2:
@@ -253,9 +253,181 @@ def as_image_size(size, name: str) -> tuple[int, int] | None:
         or not all(isinstance(v, numbers.Integral) and not isinstance(v, bool) for v in size)
     ):
         raise InvalidTypeError(
-            f"`{name}` must be (width, height) as two integers, got {_describe(size)}"
+            f"`{name}` must be (width, height) as two integers, got {describe(size)}"
         )
     w, h = int(size[0]), int(size[1])
     if w <= 0 or h <= 0:
         raise InvalidArgumentError(f"`{name}` must be positive (width, height), got {(w, h)}")
     return (w, h)
+
+
+# -- scalars -------------------------------------------------------------------------------
+
+#: Bounds of the integers the kernels take (int64): every integer parameter is refused
+#: outside them before it reaches Numba.
+INT64_MIN, INT64_MAX = -(2**63), 2**63 - 1
+
+
+def _interval(lo, hi, lo_open: bool) -> str:
+    left = "(" if lo_open or lo is None else "["
+    return f"{left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}]"
+
+
+def as_real(value, name: str, *, lo=None, hi=None, lo_open: bool = False,
+            optional: bool = False) -> float | None:
+    """``value`` as a finite Python float in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``).
+
+    None is returned as None when ``optional``; bools, strings and other non-numbers raise
+    :class:`InvalidTypeError`, NaN, infinities and values outside the interval
+    :class:`InvalidArgumentError`, each naming ``name``.
+    """
+    if value is None and optional:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InvalidTypeError(f"`{name}` must be a number, got {describe(value)}")
+    try:
+        v = float(value)
+    except OverflowError:  # a Python int beyond the float range
+        v = float("inf") if value > 0 else float("-inf")
+    bad = not np.isfinite(v)
+    if lo is not None:
+        bad = bad or (v <= lo if lo_open else v < lo)
+    if hi is not None:
+        bad = bad or v > hi
+    if bad:
+        raise InvalidArgumentError(
+            f"`{name}` must be a finite number in {_interval(lo, hi, lo_open)}, got {v!r}")
+    return v
+
+
+def as_int(value, name: str, *, lo: int | None = None, hi: int | None = None,
+           odd: bool = False, optional: bool = False) -> int | None:
+    """``value`` as a Python int in ``[lo, hi]``, and within int64 whatever the bounds.
+
+    None is returned as None when ``optional``; bools and non-integers raise
+    :class:`InvalidTypeError`, values outside the interval (or even when ``odd``)
+    :class:`InvalidArgumentError`, each naming ``name``.
+    """
+    if value is None and optional:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise InvalidTypeError(f"`{name}` must be an integer, got {describe(value)}")
+    v = int(value)
+    lo_b = INT64_MIN if lo is None else max(int(lo), INT64_MIN)
+    hi_b = INT64_MAX if hi is None else min(int(hi), INT64_MAX)
+    if not lo_b <= v <= hi_b:
+        raise InvalidArgumentError(f"`{name}` must be in [{lo_b}, {hi_b}], got {v}")
+    if odd and v % 2 == 0:
+        raise InvalidArgumentError(f"`{name}` must be odd, got {v}")
+    return v
+
+
+# -- matrices --------------------------------------------------------------------------------
+
+
+def as_array(value, name: str) -> np.ndarray:
+    """``value`` as a new float64 array of finite real numbers (any shape)."""
+    if value is None or isinstance(value, (str, bytes)):
+        raise InvalidTypeError(f"`{name}` must be a numeric array, got {describe(value)}")
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise InvalidTypeError(f"`{name}` must be a numeric array: {exc}") from None
+    if arr.dtype == np.bool_ or not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
+        raise InvalidTypeError(f"`{name}` must hold real numbers, got dtype {arr.dtype}")
+    arr = np.array(arr, dtype=np.float64)  # always a copy: callers' arrays stay theirs
+    if not np.isfinite(arr).all():
+        raise InvalidArgumentError(f"`{name}` contains NaN or infinite values")
+    return arr
+
+
+def as_matrix(value, name: str, shape: tuple[int, int]) -> np.ndarray:
+    """A new finite float64 matrix of exactly ``shape``."""
+    arr = as_array(value, name)
+    if arr.shape != shape:
+        raise InvalidArgumentError(
+            f"`{name}` must be a {shape[0]}x{shape[1]} matrix, got shape {arr.shape} instead "
+            f"of {tuple(shape)}"
+        )
+    return arr
+
+
+def as_fundamental_matrix(F, name: str = "F", *, optional: bool = False) -> np.ndarray | None:
+    """A fundamental matrix (``x_r^T F x_l = 0``, as ``cv2.findFundamentalMat`` returns it):
+    any finite 3 x 3 array-like, not all zero, returned as a new C-contiguous float64
+    array; None passes through when ``optional``."""
+    if F is None and optional:
+        return None
+    if F is None or isinstance(F, (str, bytes)):
+        raise InvalidTypeError(f"`{name}` must be a 3 x 3 numeric array, got {describe(F)}")
+    if isinstance(F, np.ndarray) and F.shape == (9, 3):
+        raise InvalidArgumentError(
+            f"`{name}` must be a 3x3 matrix, got shape (9, 3): cv2.findFundamentalMat "
+            "returns several stacked solutions for FM_7POINT; pick one"
+        )
+    f = as_matrix(F, name, (3, 3))
+    if not np.any(f):
+        raise InvalidArgumentError(f"`{name}` must be finite and not all zeros")
+    return f
+
+
+def cv2_call(what: str, func, *args, **kwargs):
+    """Call a cv2 function; re-raise ``cv2.error`` as InvalidArgumentError naming ``what``."""
+    try:
+        return func(*args, **kwargs)
+    except cv2.error as exc:
+        detail = getattr(exc, "err", None) or str(exc).strip().splitlines()[-1]
+        raise InvalidArgumentError(f"{what} failed in OpenCV: {detail}") from exc
+
+
+# -- matches ---------------------------------------------------------------------------------
+
+
+def as_match_indices(matches, name: str = "matches", *, n_query: int | None = None,
+                     n_train: int | None = None) -> np.ndarray:
+    """``(M, 2)`` int64 (query index, train index) pairs from a sequence of ``cv2.DMatch``
+    (or one) or an ``(M, 2)`` integer array; negative indices, and indices at or beyond
+    ``n_query`` / ``n_train`` when given, are refused."""
+    if isinstance(matches, cv2.DMatch):
+        matches = [matches]
+    if isinstance(matches, np.ndarray):
+        if matches.size == 0:
+            return np.zeros((0, 2), np.int64)
+        if not np.issubdtype(matches.dtype, np.integer):
+            raise InvalidTypeError(
+                f"`{name}` as an array must hold integer (query_index, train_index) pairs, "
+                f"got dtype {matches.dtype}"
+            )
+        if matches.ndim != 2 or matches.shape[1] != 2:
+            raise InvalidArgumentError(
+                f"`{name}` as an array must have shape (M, 2) holding (query_index, "
+                f"train_index), got shape {matches.shape}"
+            )
+        idx = matches.astype(np.int64)
+    elif not isinstance(matches, Sequence) or isinstance(matches, (str, bytes)):
+        raise InvalidTypeError(
+            f"`{name}` must be a sequence of cv2.DMatch or an (M, 2) integer array, got "
+            f"{describe(matches)}"
+        )
+    else:
+        idx = np.empty((len(matches), 2), np.int64)
+        for i, m in enumerate(matches):
+            if isinstance(m, cv2.DMatch):
+                idx[i] = m.queryIdx, m.trainIdx
+            elif isinstance(m, Sequence) and len(m) and isinstance(m[0], cv2.DMatch):
+                raise InvalidTypeError(
+                    f"`{name}[{i}]` is a list of cv2.DMatch, as knnMatch returns; keep one "
+                    "match per query, e.g. [m for m, n in knn if m.distance < 0.8 * n.distance]"
+                )
+            else:
+                raise InvalidTypeError(f"`{name}[{i}]` must be a cv2.DMatch, got {describe(m)}")
+    if (idx < 0).any():
+        raise InvalidArgumentError(f"`{name}` contains negative queryIdx or trainIdx")
+    if len(idx) and ((n_query is not None and idx[:, 0].max() >= n_query)
+                     or (n_train is not None and idx[:, 1].max() >= n_train)):
+        raise InvalidArgumentError(
+            f"`{name}` refer to keypoints that do not exist: indices must be in "
+            f"[0, {n_query}) for the query (left) and [0, {n_train}) for the train (right) "
+            "keypoints"
+        )
+    return idx

@@ -39,6 +39,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ._validate import as_real
 from .errors import InvalidArgumentError, InvalidTypeError
 
 __all__ = [
@@ -172,15 +173,6 @@ def _existing_file(path, what: str) -> Path:
     return p
 
 
-def _positive_number(value, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InvalidTypeError(f"`{name}` must be a positive number, got {value!r}")
-    value = float(value)
-    if not (math.isfinite(value) and value > 0):
-        raise InvalidArgumentError(f"`{name}` must be a positive finite number, got {value}")
-    return value
-
-
 def _imread(path, flags: int, what: str) -> np.ndarray:
     p = _existing_file(path, what)
     # np.fromfile + imdecode: no silent None for non-ASCII paths, and no stderr noise.
@@ -268,7 +260,7 @@ def read_middlebury_disparity(path, scale, unknown_value=0) -> np.ndarray:
     array([[nan, 1. ],
            [2. , 2.5]], dtype=float32)
     """
-    scale = _positive_number(scale, "scale")
+    scale = as_real(scale, "scale", lo=0.0, lo_open=True)
     if unknown_value is not None and (
         isinstance(unknown_value, bool) or not isinstance(unknown_value, numbers.Real)
     ):
@@ -768,7 +760,7 @@ def load_scene(folder, name: str | None = None) -> StereoScene:
             f"{list(_REQUIRED_META)} (and usually unknown_value, dataset, cite)"
         )
     try:
-        scale = _positive_number(meta["scale"], "scale")
+        scale = as_real(meta["scale"], "scale", lo=0.0, lo_open=True)
     except (InvalidArgumentError, InvalidTypeError) as exc:
         raise InvalidArgumentError(f"{str(meta_path)!r}: {exc}") from None
     unknown = meta.get("unknown_value", 0)

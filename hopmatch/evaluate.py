@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ._validate import _describe, as_points
+from ._validate import as_points, as_real, describe
 from .errors import InvalidArgumentError, InvalidTypeError
 
 __all__ = ["MatchScore", "error_histogram", "repeatability", "score_matches"]
@@ -35,7 +35,7 @@ def _as_disparity(disparity, name: str = "disparity_gt") -> np.ndarray:
     if not isinstance(disparity, np.ndarray):
         raise InvalidTypeError(
             f"`{name}` must be a numpy array (H, W) of disparities in pixels, got "
-            f"{_describe(disparity)}"
+            f"{describe(disparity)}"
         )
     if disparity.dtype == np.bool_ or not np.issubdtype(disparity.dtype, np.number):
         raise InvalidTypeError(f"`{name}` must hold numbers, got dtype {disparity.dtype}")
@@ -49,17 +49,6 @@ def _as_disparity(disparity, name: str = "disparity_gt") -> np.ndarray:
     return np.ascontiguousarray(disparity, dtype=np.float32)
 
 
-def _tolerance(value, name: str, allow_zero: bool) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InvalidTypeError(f"`{name}` must be a number of pixels, got {_describe(value)}")
-    value = float(value)
-    ok = value >= 0 if allow_zero else value > 0
-    if not (math.isfinite(value) and ok):
-        bound = ">= 0" if allow_zero else "> 0"
-        raise InvalidArgumentError(f"`{name}` must be a finite number {bound} pixels, got {value}")
-    return value
-
-
 def _thresholds(thresholds) -> tuple[float, ...]:
     if isinstance(thresholds, numbers.Real) and not isinstance(thresholds, bool):
         thresholds = (thresholds,)
@@ -68,11 +57,11 @@ def _thresholds(thresholds) -> tuple[float, ...]:
     if not isinstance(thresholds, Sequence) or isinstance(thresholds, (str, bytes)):
         raise InvalidTypeError(
             f"`thresholds` must be a sequence of pixel tolerances such as (0.5, 1.0, 2.0), "
-            f"got {_describe(thresholds)}"
+            f"got {describe(thresholds)}"
         )
     if len(thresholds) == 0:
         raise InvalidArgumentError("`thresholds` must hold at least one tolerance, got none")
-    out = tuple(_tolerance(t, "thresholds", allow_zero=False) for t in thresholds)
+    out = tuple(as_real(t, "thresholds", lo=0.0, lo_open=True) for t in thresholds)
     return tuple(dict.fromkeys(out))  # unique, order kept
 
 
@@ -282,9 +271,7 @@ def score_matches(
         )
     disparity = _as_disparity(disparity_gt)
     ts = _thresholds(thresholds)
-    vt = None if vertical_tolerance is None else _tolerance(
-        vertical_tolerance, "vertical_tolerance", allow_zero=True
-    )
+    vt = None if vertical_tolerance is None else as_real(vertical_tolerance, "vertical_tolerance", lo=0.0)
     if (right_keypoints is None) != (left_keypoints is None):
         raise InvalidArgumentError(
             "recall needs both `left_keypoints` and `right_keypoints`; got only "
@@ -360,7 +347,7 @@ def error_histogram(errors, bins=(0.0, 0.5, 1.0, 2.0, 4.0, np.inf), absolute: bo
         err = np.asarray(errors, dtype=np.float64)
     except (TypeError, ValueError):
         raise InvalidTypeError(
-            f"`errors` must be a 1-D array of numbers, got {_describe(errors)}"
+            f"`errors` must be a 1-D array of numbers, got {describe(errors)}"
         ) from None
     if err.ndim != 1:
         raise InvalidArgumentError(f"`errors` must be 1-dimensional (N,), got shape {err.shape}")
@@ -381,7 +368,7 @@ def error_histogram(errors, bins=(0.0, 0.5, 1.0, 2.0, 4.0, np.inf), absolute: bo
             edges = np.asarray(bins, dtype=np.float64)
         except (TypeError, ValueError):
             raise InvalidTypeError(
-                f"`bins` must be an int or a sequence of edges, got {_describe(bins)}"
+                f"`bins` must be an int or a sequence of edges, got {describe(bins)}"
             ) from None
         if edges.ndim != 1 or edges.size < 2 or np.isnan(edges).any() or (np.diff(edges) <= 0).any():
             raise InvalidArgumentError(
@@ -430,7 +417,7 @@ def repeatability(left_pts, right_pts, disparity_gt, tolerance: float = 1.0):
     left = as_points(left_pts, "left_pts")
     right = as_points(right_pts, "right_pts")
     disparity = _as_disparity(disparity_gt)
-    tol = _tolerance(tolerance, "tolerance", allow_zero=True)
+    tol = as_real(tolerance, "tolerance", lo=0.0)
     d = _gt_at(left, disparity)
     has_gt = np.isfinite(d)
     n_gt = int(has_gt.sum())

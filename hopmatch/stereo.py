@@ -22,18 +22,28 @@ Conventions, as in cv2:
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import numbers
 import os
-import secrets
 from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from ._validate import IMAGE_DTYPES, _describe, as_image_size, as_points
+from ._files import atomic_path
+from ._validate import (
+    IMAGE_DTYPES,
+    as_array,
+    as_fundamental_matrix,
+    as_image_size,
+    as_match_indices,
+    as_matrix,
+    as_points,
+    as_real,
+    cv2_call,
+    describe,
+)
 from .errors import BudgetExceededError, InvalidArgumentError, InvalidTypeError
 
 __all__ = [
@@ -80,43 +90,8 @@ del _name
 # private helpers
 # --------------------------------------------------------------------------------------
 
-def _cv2_call(what: str, func, *args, **kwargs):
-    """Call a cv2 function; re-raise ``cv2.error`` as InvalidArgumentError naming ``what``."""
-    try:
-        return func(*args, **kwargs)
-    except cv2.error as exc:
-        detail = getattr(exc, "err", None) or str(exc).strip().splitlines()[-1]
-        raise InvalidArgumentError(f"{what} failed in OpenCV: {detail}") from exc
-
-
-def _as_array(value, name: str) -> np.ndarray:
-    """``value`` as a float64 array of finite numbers (any shape)."""
-    if value is None or isinstance(value, (str, bytes)):
-        raise InvalidTypeError(f"`{name}` must be a numeric array, got {_describe(value)}")
-    try:
-        arr = np.asarray(value)
-    except (TypeError, ValueError) as exc:
-        raise InvalidTypeError(f"`{name}` must be a numeric array: {exc}") from None
-    if arr.dtype == np.bool_ or not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
-        raise InvalidTypeError(f"`{name}` must hold real numbers, got dtype {arr.dtype}")
-    arr = np.array(arr, dtype=np.float64)  # always a copy: callers' arrays stay theirs
-    if not np.isfinite(arr).all():
-        raise InvalidArgumentError(f"`{name}` contains NaN or infinite values")
-    return arr
-
-
-def _as_matrix(value, name: str, shape: tuple[int, int]) -> np.ndarray:
-    """A finite float64 matrix of exactly ``shape``."""
-    arr = _as_array(value, name)
-    if arr.shape != shape:
-        raise InvalidArgumentError(
-            f"`{name}` must be a {shape[0]}x{shape[1]} matrix, got shape {arr.shape}"
-        )
-    return arr
-
-
 def _as_camera_matrix(value, name: str) -> np.ndarray:
-    k = _as_matrix(value, name, (3, 3))
+    k = as_matrix(value, name, (3, 3))
     if k[0, 0] <= 0 or k[1, 1] <= 0:
         raise InvalidArgumentError(
             f"`{name}` must be a camera matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] with "
@@ -126,7 +101,7 @@ def _as_camera_matrix(value, name: str) -> np.ndarray:
 
 
 def _as_distortion(value, name: str) -> np.ndarray:
-    d = _as_array(value, name)
+    d = as_array(value, name)
     if d.ndim > 2 or (d.ndim == 2 and 1 not in d.shape) or d.size not in (4, 5, 8, 12, 14):
         raise InvalidArgumentError(
             f"`{name}` must hold 4, 5, 8, 12 or 14 distortion coefficients (k1, k2, p1, p2"
@@ -136,7 +111,7 @@ def _as_distortion(value, name: str) -> np.ndarray:
 
 
 def _as_rotation(value, name: str) -> np.ndarray:
-    r = _as_array(value, name)
+    r = as_array(value, name)
     if r.size == 3 and r.ndim <= 2:
         r = cv2.Rodrigues(r.reshape(3, 1))[0]
     if r.shape != (3, 3):
@@ -154,7 +129,7 @@ def _as_rotation(value, name: str) -> np.ndarray:
 
 
 def _as_translation(value, name: str) -> np.ndarray:
-    t = _as_array(value, name)
+    t = as_array(value, name)
     if t.size != 3 or t.ndim > 2:
         raise InvalidArgumentError(
             f"`{name}` must hold 3 values (tx, ty, tz), got shape {t.shape}"
@@ -162,25 +137,6 @@ def _as_translation(value, name: str) -> np.ndarray:
     if not np.any(t):
         raise InvalidArgumentError(f"`{name}` must not be zero: a stereo pair needs a baseline")
     return t.reshape(3, 1)
-
-
-def _as_real(value, name: str, *, lo=None, hi=None, lo_open=False) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InvalidTypeError(f"`{name}` must be a real number, got {_describe(value)}")
-    v = float(value)
-    bad = not np.isfinite(v)
-    if lo is not None:
-        bad = bad or (v <= lo if lo_open else v < lo)
-    if hi is not None:
-        bad = bad or v > hi
-    if bad:
-        lo_s = "-inf" if lo is None else f"{lo:g}"
-        hi_s = "inf" if hi is None else f"{hi:g}"
-        left = "(" if lo_open or lo is None else "["
-        raise InvalidArgumentError(
-            f"`{name}` must be finite and in {left}{lo_s}, {hi_s}], got {v!r}"
-        )
-    return v
 
 
 def _as_pair(left_pts, right_pts, left_name="left_pts", right_name="right_pts"):
@@ -197,7 +153,7 @@ def _as_pair(left_pts, right_pts, left_name="left_pts", right_name="right_pts"):
 def _as_values(values, name: str, n: int) -> np.ndarray:
     """An (n,) float64 vector; NaN allowed (no value), infinities refused."""
     if values is None or isinstance(values, (str, bytes)):
-        raise InvalidTypeError(f"`{name}` must be a 1-D numeric array, got {_describe(values)}")
+        raise InvalidTypeError(f"`{name}` must be a 1-D numeric array, got {describe(values)}")
     try:
         arr = np.asarray(values)
     except (TypeError, ValueError) as exc:
@@ -220,7 +176,7 @@ def _as_image(image, name: str) -> np.ndarray:
     """Any image cv2.remap / cv2.warpPerspective accept, kept as it is (no grey conversion)."""
     if not isinstance(image, np.ndarray):
         raise InvalidTypeError(
-            f"`{name}` must be a numpy array (as returned by cv2.imread), got {_describe(image)}"
+            f"`{name}` must be a numpy array (as returned by cv2.imread), got {describe(image)}"
         )
     if image.dtype == np.bool_ or image.dtype.type not in IMAGE_DTYPES:
         raise InvalidTypeError(
@@ -256,88 +212,13 @@ def _check_option(value, name: str, options: dict) -> int:
 
 def _as_path(path, name: str = "path") -> Path:
     if not isinstance(path, (str, os.PathLike)):
-        raise InvalidTypeError(f"`{name}` must be a str or os.PathLike, got {_describe(path)}")
+        raise InvalidTypeError(f"`{name}` must be a str or os.PathLike, got {describe(path)}")
     return Path(path)
-
-
-@contextlib.contextmanager
-def _atomic_path(path: Path, name: str = "path"):
-    """Yield a temporary path beside ``path``; move it onto ``path`` only on success.
-
-    The temporary file has the same suffix as ``path`` (cv2.FileStorage chooses its format
-    from it) and is created with mode 0o666 minus the umask, as ``open(path, 'w')`` would.
-    On any error it is removed and ``path`` is left as it was.
-    """
-    folder = path.parent
-    if not folder.is_dir():
-        raise InvalidArgumentError(
-            f"`{name}`: the folder {str(folder)!r} of {str(path)!r} does not exist"
-        )
-    suffix = "".join(path.suffixes[-2:]) if path.suffix == ".gz" else path.suffix
-    while True:
-        tmp = folder / f".{path.name}.{secrets.token_hex(4)}.tmp{suffix}"
-        try:
-            fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
-        except FileExistsError:  # pragma: no cover - 32 random bits collided
-            continue
-        os.close(fd)
-        break
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
 
 
 # --------------------------------------------------------------------------------------
 # keypoints and matches
 # --------------------------------------------------------------------------------------
-
-def _as_match_indices(matches, name: str = "matches") -> np.ndarray:
-    """``(M, 2)`` int64 (query index, train index) from cv2.DMatch objects or an array."""
-    if isinstance(matches, cv2.DMatch):
-        matches = [matches]
-    if isinstance(matches, np.ndarray):
-        if matches.size == 0:
-            return np.zeros((0, 2), np.int64)
-        if not np.issubdtype(matches.dtype, np.integer):
-            raise InvalidTypeError(
-                f"`{name}` as an array must hold integer (query_index, train_index) pairs, "
-                f"got dtype {matches.dtype}"
-            )
-        if matches.ndim != 2 or matches.shape[1] != 2:
-            raise InvalidArgumentError(
-                f"`{name}` as an array must have shape (M, 2) holding (query_index, "
-                f"train_index), got shape {matches.shape}"
-            )
-        idx = matches.astype(np.int64)
-        if (idx < 0).any():
-            raise InvalidArgumentError(f"`{name}` contains negative indices")
-        return idx
-    if not isinstance(matches, Sequence) or isinstance(matches, (str, bytes)):
-        raise InvalidTypeError(
-            f"`{name}` must be a sequence of cv2.DMatch or an (M, 2) integer array, got "
-            f"{_describe(matches)}"
-        )
-    idx = np.empty((len(matches), 2), np.int64)
-    for i, m in enumerate(matches):
-        if isinstance(m, cv2.DMatch):
-            idx[i] = m.queryIdx, m.trainIdx
-        elif isinstance(m, Sequence) and len(m) and isinstance(m[0], cv2.DMatch):
-            raise InvalidTypeError(
-                f"`{name}[{i}]` is a list of cv2.DMatch, as knnMatch returns; keep one match "
-                "per query, e.g. [m for m, n in knn if m.distance < 0.8 * n.distance]"
-            )
-        else:
-            raise InvalidTypeError(
-                f"`{name}[{i}]` must be a cv2.DMatch, got {_describe(m)}"
-            )
-    if (idx < 0).any():
-        raise InvalidArgumentError(f"`{name}` contains negative queryIdx or trainIdx")
-    return idx
-
 
 def matched_points(query_kpts, train_kpts, matches) -> tuple[np.ndarray, np.ndarray]:
     """The matched points of a cv2 matcher's result, as two aligned point arrays.
@@ -376,7 +257,7 @@ def matched_points(query_kpts, train_kpts, matches) -> tuple[np.ndarray, np.ndar
     """
     query = as_points(query_kpts, "query_kpts")
     train = as_points(train_kpts, "train_kpts")
-    idx = _as_match_indices(matches)
+    idx = as_match_indices(matches)
     for col, pts, pname, attr in ((0, query, "query_kpts", "queryIdx"),
                                   (1, train, "train_kpts", "trainIdx")):
         bad = np.flatnonzero(idx[:, col] >= len(pts))
@@ -421,7 +302,7 @@ def keypoints_and_matches(left_pts, right_pts, distances=None, *, size: float = 
     """
     left, right = _as_pair(left_pts, right_pts)
     n = len(left)
-    size = _as_real(size, "size", lo=0.0, lo_open=True)
+    size = as_real(size, "size", lo=0.0, lo_open=True)
     if distances is None:
         dist = np.zeros(n)
     else:
@@ -501,7 +382,7 @@ def sparse_disparity_image(left_pts, disparities, shape) -> np.ndarray:
     ):
         raise InvalidTypeError(
             f"`shape` must be (H, W) (or an image's (H, W, C) shape) as integers, "
-            f"got {_describe(shape)}"
+            f"got {describe(shape)}"
         )
     h, w = int(shape[0]), int(shape[1])
     if h <= 0 or w <= 0:
@@ -559,7 +440,7 @@ def depth_from_disparity(disparity, *, Q=None, focal=None, baseline=None, doffs=
     scalar = isinstance(disparity, numbers.Real) and not isinstance(disparity, bool)
     if disparity is None or isinstance(disparity, (str, bytes, bool)):
         raise InvalidTypeError(
-            f"`disparity` must be a number or a numeric array, got {_describe(disparity)}"
+            f"`disparity` must be a number or a numeric array, got {describe(disparity)}"
         )
     try:
         d = np.asarray(disparity)
@@ -577,7 +458,7 @@ def depth_from_disparity(disparity, *, Q=None, focal=None, baseline=None, doffs=
             raise InvalidArgumentError(
                 "`doffs` cannot be used with `Q`: Q[3, 3] already holds the principal-point offset"
             )
-        q = _as_matrix(Q, "Q", (4, 4))
+        q = as_matrix(Q, "Q", (4, 4))
         num, den = q[2, 3], q[3, 2] * d + q[3, 3]
     else:
         missing = [n for n, v in (("focal", focal), ("baseline", baseline)) if v is None]
@@ -585,9 +466,9 @@ def depth_from_disparity(disparity, *, Q=None, focal=None, baseline=None, doffs=
             raise InvalidArgumentError(
                 f"give `Q` or both `focal` and `baseline`; missing {', '.join(missing)}"
             )
-        f = _as_real(focal, "focal", lo=0.0, lo_open=True)
-        b = _as_real(baseline, "baseline", lo=0.0, lo_open=True)
-        off = _as_real(doffs, "doffs")
+        f = as_real(focal, "focal", lo=0.0, lo_open=True)
+        b = as_real(baseline, "baseline", lo=0.0, lo_open=True)
+        off = as_real(doffs, "doffs")
         num, den = f * b, d + off
     with np.errstate(divide="ignore", invalid="ignore"):
         z = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
@@ -626,7 +507,7 @@ def reproject_points(left_pts, disparities, Q) -> np.ndarray:
     """
     pts = as_points(left_pts, "left_pts")
     disp = _as_values(disparities, "disparities", len(pts))
-    q = _as_matrix(Q, "Q", (4, 4))
+    q = as_matrix(Q, "Q", (4, 4))
     if len(pts) == 0:
         return np.zeros((0, 3), np.float32)
     valid = ~np.isnan(disp)
@@ -634,7 +515,7 @@ def reproject_points(left_pts, disparities, Q) -> np.ndarray:
     src[:, 0, :2] = pts
     src[:, 0, 2] = np.where(valid, disp, 0.0)
     w = src[:, 0, :] @ q[3, :3] + q[3, 3]
-    xyz = _cv2_call("cv2.perspectiveTransform with `Q`", cv2.perspectiveTransform, src, q)
+    xyz = cv2_call("cv2.perspectiveTransform with `Q`", cv2.perspectiveTransform, src, q)
     xyz = xyz.reshape(-1, 3).astype(np.float32)
     xyz[~(valid & (w > 0))] = np.nan
     return xyz
@@ -669,11 +550,11 @@ def triangulate_matches(left_pts, right_pts, P1, P2) -> np.ndarray:
     ((2, 3), dtype('float32'), [5.0, 5.0], [0.0, 0.5])
     """
     left, right = _as_pair(left_pts, right_pts)
-    p1 = _as_matrix(P1, "P1", (3, 4))
-    p2 = _as_matrix(P2, "P2", (3, 4))
+    p1 = as_matrix(P1, "P1", (3, 4))
+    p2 = as_matrix(P2, "P2", (3, 4))
     if len(left) == 0:
         return np.zeros((0, 3), np.float32)
-    h = _cv2_call(
+    h = cv2_call(
         "cv2.triangulatePoints with `P1`, `P2`", cv2.triangulatePoints, p1, p2,
         np.ascontiguousarray(left.T, dtype=np.float64),
         np.ascontiguousarray(right.T, dtype=np.float64),
@@ -726,7 +607,7 @@ def write_ply(path, xyz, colors=None) -> int:
     if colors is not None:
         if not isinstance(colors, np.ndarray):
             raise InvalidTypeError(
-                f"`colors` must be a uint8 numpy array or None, got {_describe(colors)}"
+                f"`colors` must be a uint8 numpy array or None, got {describe(colors)}"
             )
         if colors.dtype != np.uint8:
             raise InvalidTypeError(
@@ -743,7 +624,7 @@ def write_ply(path, xyz, colors=None) -> int:
     pts = pts[keep]
     if cols is not None:
         cols = cols[keep]
-    with _atomic_path(path) as tmp:
+    with atomic_path(path) as tmp:
         with open(tmp, "w", encoding="ascii", newline="\n") as fh:
             _write_ply_body(fh, pts.astype(np.float32), cols)
             fh.flush()
@@ -754,7 +635,7 @@ def write_ply(path, xyz, colors=None) -> int:
 def _as_array_nonfinite(value, name):
     """Like _as_array but NaN/inf allowed (they are filtered by the caller)."""
     if value is None or isinstance(value, (str, bytes)):
-        raise InvalidTypeError(f"`{name}` must be a numeric array, got {_describe(value)}")
+        raise InvalidTypeError(f"`{name}` must be a numeric array, got {describe(value)}")
     try:
         arr = np.asarray(value)
     except (TypeError, ValueError) as exc:
@@ -912,10 +793,10 @@ class StereoCalibration:
         alpha = _check_alpha(alpha)
         if not isinstance(zero_disparity, (bool, np.bool_)):
             raise InvalidTypeError(
-                f"`zero_disparity` must be a bool, got {_describe(zero_disparity)}"
+                f"`zero_disparity` must be a bool, got {describe(zero_disparity)}"
             )
         flags = cv2.CALIB_ZERO_DISPARITY if zero_disparity else 0
-        r1, r2, p1, p2, q, _, _ = _cv2_call(
+        r1, r2, p1, p2, q, _, _ = cv2_call(
             "cv2.stereoRectify with this calibration", cv2.stereoRectify,
             self.K1, self.D1, self.K2, self.D2, size, self.R, self.T,
             flags=flags, alpha=alpha,
@@ -1011,7 +892,7 @@ class StereoCalibration:
                 f"`path` must end in .yml, .yaml, .xml or .json (optionally + .gz), as "
                 f"cv2.FileStorage chooses the format from it; got {str(path)!r}"
             )
-        with _atomic_path(path) as tmp:
+        with atomic_path(path) as tmp:
             try:
                 fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
             except (cv2.error, SystemError) as exc:
@@ -1041,11 +922,11 @@ _FIELD_CHECKS = {
     "R": _as_rotation,
     "T": _as_translation,
     "image_size": as_image_size,
-    "R1": lambda v, n: _as_matrix(v, n, (3, 3)),
-    "R2": lambda v, n: _as_matrix(v, n, (3, 3)),
-    "P1": lambda v, n: _as_matrix(v, n, (3, 4)),
-    "P2": lambda v, n: _as_matrix(v, n, (3, 4)),
-    "Q": lambda v, n: _as_matrix(v, n, (4, 4)),
+    "R1": lambda v, n: as_matrix(v, n, (3, 3)),
+    "R2": lambda v, n: as_matrix(v, n, (3, 3)),
+    "P1": lambda v, n: as_matrix(v, n, (3, 4)),
+    "P2": lambda v, n: as_matrix(v, n, (3, 4)),
+    "Q": lambda v, n: as_matrix(v, n, (4, 4)),
 }
 
 
@@ -1145,7 +1026,7 @@ def _size_from_values(size: np.ndarray, what: str) -> tuple[int, int]:
 
 
 def _check_alpha(alpha) -> float:
-    a = _as_real(alpha, "alpha")
+    a = as_real(alpha, "alpha")
     if not (a == -1.0 or 0.0 <= a <= 1.0):
         raise InvalidArgumentError(f"`alpha` must be -1 or in [0, 1], got {a!r}")
     return a
@@ -1155,7 +1036,7 @@ def _as_calibration(calibration, name: str = "calibration") -> StereoCalibration
     if not isinstance(calibration, StereoCalibration):
         raise InvalidTypeError(
             f"`{name}` must be a StereoCalibration (e.g. StereoCalibration.from_file(path)), "
-            f"got {_describe(calibration)}"
+            f"got {describe(calibration)}"
         )
     return calibration
 
@@ -1216,9 +1097,9 @@ def rectify(left, right, calibration, alpha: float = 0.0, *,
     out = []
     for img, k, d, r, p, side in ((left, cal.K1, cal.D1, cal.R1, cal.P1, "left"),
                                   (right, cal.K2, cal.D2, cal.R2, cal.P2, "right")):
-        mx, my = _cv2_call(f"cv2.initUndistortRectifyMap for `{side}`",
+        mx, my = cv2_call(f"cv2.initUndistortRectifyMap for `{side}`",
                            cv2.initUndistortRectifyMap, k, d, r, p, size, cv2.CV_32FC1)
-        out.append(_cv2_call(f"cv2.remap of `{side}`", cv2.remap, img, mx, my, interpolation,
+        out.append(cv2_call(f"cv2.remap of `{side}`", cv2.remap, img, mx, my, interpolation,
                              borderMode=cv2.BORDER_CONSTANT).reshape(img.shape))
     return out[0], out[1], cal
 
@@ -1266,7 +1147,7 @@ def rectify_points(points, calibration, which: str = "left") -> np.ndarray:
         return np.zeros((0, 2), np.float32)
     k, d, r, p = ((cal.K1, cal.D1, cal.R1, cal.P1) if which == "left"
                   else (cal.K2, cal.D2, cal.R2, cal.P2))
-    out = _cv2_call("cv2.undistortPoints of `points`", cv2.undistortPoints,
+    out = cv2_call("cv2.undistortPoints of `points`", cv2.undistortPoints,
                     pts.reshape(-1, 1, 2).astype(np.float64), k, d, R=r, P=p)
     return np.ascontiguousarray(out.reshape(-1, 2), dtype=np.float32)
 
@@ -1275,18 +1156,11 @@ def rectify_points(points, calibration, which: str = "left") -> np.ndarray:
 # unrectified pairs: epipolar geometry
 # --------------------------------------------------------------------------------------
 
-def _as_fundamental(F) -> np.ndarray:
-    f = _as_matrix(F, "F", (3, 3))
-    if not np.any(f):
-        raise InvalidArgumentError("`F` must not be all zeros")
-    return f
-
-
 def _epilines(pts: np.ndarray, which: int, f: np.ndarray) -> np.ndarray:
     """(N, 3) float64 lines ``a x + b y + c = 0`` with ``a**2 + b**2 == 1``."""
     if len(pts) == 0:
         return np.zeros((0, 3), np.float64)
-    lines = _cv2_call("cv2.computeCorrespondEpilines with `F`", cv2.computeCorrespondEpilines,
+    lines = cv2_call("cv2.computeCorrespondEpilines with `F`", cv2.computeCorrespondEpilines,
                       pts.reshape(-1, 1, 2).astype(np.float64), which, f)
     return lines.reshape(-1, 3)
 
@@ -1327,7 +1201,7 @@ def epipolar_distances(left_pts, right_pts, F, *, reduce: str = "mean") -> np.nd
     [0.0, 3.0]
     """
     left, right = _as_pair(left_pts, right_pts)
-    f = _as_fundamental(F)
+    f = as_fundamental_matrix(F)
     op = _reduce_option(reduce)
     lr = _epilines(left, 1, f)   # lines in the right image
     ll = _epilines(right, 2, f)  # lines in the left image
@@ -1378,7 +1252,7 @@ def epipolar_distance_matrix(left_pts, right_pts, F, *, reduce: str = "mean",
     """
     left = as_points(left_pts, "left_pts")
     right = as_points(right_pts, "right_pts")
-    f = _as_fundamental(F)
+    f = as_fundamental_matrix(F)
     op = _reduce_option(reduce)
     if isinstance(max_pairs, bool) or not isinstance(max_pairs, numbers.Integral) or max_pairs < 0:
         raise InvalidArgumentError(f"`max_pairs` must be a non-negative integer, got {max_pairs!r}")
@@ -1440,8 +1314,8 @@ def estimate_fundamental(left_pts, right_pts, method: int = cv2.FM_RANSAC,
     """
     left, right = _as_pair(left_pts, right_pts)
     method = _check_option(method, "method", _F_METHODS)
-    threshold = _as_real(threshold, "threshold", lo=0.0, lo_open=True)
-    confidence = _as_real(confidence, "confidence", lo=0.0, hi=1.0, lo_open=True)
+    threshold = as_real(threshold, "threshold", lo=0.0, lo_open=True)
+    confidence = as_real(confidence, "confidence", lo=0.0, hi=1.0, lo_open=True)
     if confidence >= 1.0:
         raise InvalidArgumentError(f"`confidence` must be in (0, 1), got {confidence!r}")
     if len(left) < 8:
@@ -1449,7 +1323,7 @@ def estimate_fundamental(left_pts, right_pts, method: int = cv2.FM_RANSAC,
             f"estimate_fundamental needs at least 8 matches in `left_pts` and `right_pts`, "
             f"got {len(left)}"
         )
-    f, mask = _cv2_call("cv2.findFundamentalMat", cv2.findFundamentalMat,
+    f, mask = cv2_call("cv2.findFundamentalMat", cv2.findFundamentalMat,
                         left.astype(np.float64), right.astype(np.float64), method,
                         threshold, confidence)
     if f is None or f.shape != (3, 3) or not np.isfinite(f).all():
@@ -1507,8 +1381,8 @@ def rectify_uncalibrated(left, right, left_pts, right_pts, F, *, threshold: floa
     """
     left, right = _as_image_pair(left, right)
     lp, rp = _as_pair(left_pts, right_pts)
-    f = _as_fundamental(F)
-    threshold = _as_real(threshold, "threshold", lo=0.0, lo_open=True)
+    f = as_fundamental_matrix(F)
+    threshold = as_real(threshold, "threshold", lo=0.0, lo_open=True)
     interpolation = _check_option(interpolation, "interpolation", _INTERPOLATIONS)
     if len(lp) < 8:
         raise InvalidArgumentError(
@@ -1516,7 +1390,7 @@ def rectify_uncalibrated(left, right, left_pts, right_pts, F, *, threshold: floa
             f"got {len(lp)}"
         )
     size = (left.shape[1], left.shape[0])
-    ok, h1, h2 = _cv2_call("cv2.stereoRectifyUncalibrated", cv2.stereoRectifyUncalibrated,
+    ok, h1, h2 = cv2_call("cv2.stereoRectifyUncalibrated", cv2.stereoRectifyUncalibrated,
                            lp.astype(np.float64), rp.astype(np.float64), f, size,
                            threshold=threshold)
     if not ok or h1 is None or h2 is None:
@@ -1525,7 +1399,7 @@ def rectify_uncalibrated(left, right, left_pts, right_pts, F, *, threshold: floa
             "their epipolar lines (check F against the points, or raise threshold)"
         )
     out = [
-        _cv2_call(f"cv2.warpPerspective of `{side}`", cv2.warpPerspective, img, h, size,
+        cv2_call(f"cv2.warpPerspective of `{side}`", cv2.warpPerspective, img, h, size,
                   flags=interpolation, borderMode=cv2.BORDER_CONSTANT).reshape(img.shape)
         for img, h, side in ((left, h1, "left"), (right, h2, "right"))
     ]

@@ -15,15 +15,20 @@ the data goes to a temporary name in the destination folder and is renamed
 from __future__ import annotations
 
 import io
-import os
-import secrets
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from ._validate import _describe, as_gray_image, as_points
+from ._files import (  # noqa: F401 (re-exported: hopmatch.viz.write_text_atomic...)
+    encode_image,
+    write_bytes_atomic,
+    write_image_atomic,
+    write_temp,
+    write_text_atomic,
+)
+from ._validate import as_gray_image, as_match_indices, as_points, describe
 from .errors import InvalidArgumentError, InvalidTypeError
 
 __all__ = [
@@ -78,33 +83,15 @@ def _as_dmatches(matches, n_left: int, n_right: int) -> list:
     """A list of ``cv2.DMatch`` from DMatches or an ``(M, 2)`` (left index, right index) array."""
     if isinstance(matches, Sequence) and not isinstance(matches, (str, bytes)) \
             and all(isinstance(m, cv2.DMatch) for m in matches):
-        out = list(matches)
-        pairs = np.array([(m.queryIdx, m.trainIdx) for m in out], dtype=np.int64).reshape(-1, 2)
-    else:
+        as_match_indices(matches, n_query=n_left, n_train=n_right)
+        return list(matches)
+    if not isinstance(matches, np.ndarray):
         try:
-            pairs = np.asarray(matches)
+            matches = np.asarray(matches)
         except (TypeError, ValueError):
-            pairs = None
-        if pairs is None or pairs.dtype == np.bool_ or not np.issubdtype(pairs.dtype, np.integer):
-            raise InvalidTypeError(
-                "`matches` must be a sequence of cv2.DMatch or an (M, 2) integer array of "
-                f"(left index, right index), got {_describe(matches)}"
-            )
-        if pairs.size == 0:
-            pairs = pairs.reshape(0, 2)
-        if pairs.ndim != 2 or pairs.shape[1] != 2:
-            raise InvalidArgumentError(
-                f"`matches` must have shape (M, 2) holding (left index, right index), got "
-                f"shape {pairs.shape}"
-            )
-        out = [cv2.DMatch(int(q), int(t), 0.0) for q, t in pairs.tolist()]
-    if len(pairs) and (pairs[:, 0].min() < 0 or pairs[:, 0].max() >= n_left
-                       or pairs[:, 1].min() < 0 or pairs[:, 1].max() >= n_right):
-        raise InvalidArgumentError(
-            f"`matches` refer to keypoints that do not exist: indices must be in "
-            f"[0, {n_left}) on the left and [0, {n_right}) on the right"
-        )
-    return out
+            pass
+    pairs = as_match_indices(matches, n_query=n_left, n_train=n_right)
+    return [cv2.DMatch(int(q), int(t), 0.0) for q, t in pairs.tolist()]
 
 
 # --------------------------------------------------------------------------------------
@@ -343,7 +330,7 @@ def render_precision_vs_correct(rows, threshold: float = 1.0, fmt: str = "png",
         if not isinstance(row, Mapping) or not {"method", key_c, key_p} <= set(row):
             raise InvalidArgumentError(
                 f"each row must be a mapping with 'method', {key_c!r} and {key_p!r} (as "
-                f"hopmatch.compare.compare returns), got {_describe(row)}"
+                f"hopmatch.compare.compare returns), got {describe(row)}"
             )
     fig = _figure((7.0, 4.6))
     ax = fig.add_subplot(1, 1, 1)
@@ -424,7 +411,7 @@ def render_error_histogram(errors_by_method, bins=ERROR_BINS, fmt: str = "png",
     if not isinstance(errors_by_method, Mapping):
         raise InvalidTypeError(
             "`errors_by_method` must be a mapping {method name: errors}, got "
-            f"{_describe(errors_by_method)}"
+            f"{describe(errors_by_method)}"
         )
     hists = {}
     for name, err in errors_by_method.items():
@@ -487,79 +474,6 @@ def plot_error_histogram(errors_by_method, path, bins=ERROR_BINS,
 # --------------------------------------------------------------------------------------
 
 
-def encode_image(image, ext: str = ".png") -> bytes:
-    """``image`` encoded with ``cv2.imencode`` for the extension ``ext`` (e.g. ``".png"``)."""
-    if not isinstance(image, np.ndarray):
-        raise InvalidTypeError(f"`image` must be a numpy array, got {_describe(image)}")
-    try:
-        ok, buf = cv2.imencode(ext, image)
-    except cv2.error as exc:
-        raise InvalidArgumentError(f"cannot encode the image as {ext!r}: {exc.err}") from None
-    if not ok:
-        raise InvalidArgumentError(f"cannot encode the image as {ext!r}")
-    return buf.tobytes()
-
-
-def write_temp(folder, name: str, data: bytes) -> Path:
-    """Write ``data`` to a new hidden temporary file in ``folder`` and return its path.
-
-    The name is ``.{name}.<random>.tmp``; nothing is left behind if writing fails.
-    """
-    folder = Path(folder)
-    for _ in range(100):
-        tmp = folder / f".{name}.{secrets.token_hex(4)}.tmp"
-        try:  # as open() would create it: mode 0o666 minus the umask (mkstemp gives 0o600)
-            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0),
-                         0o666)
-            break
-        except FileExistsError:
-            continue
-    else:  # pragma: no cover
-        raise FileExistsError(f"no free temporary name in {str(folder)!r}")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    return Path(tmp)
-
-
-def write_bytes_atomic(path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` through a temporary file in the same folder + ``os.replace``."""
-    path = Path(path)
-    tmp = write_temp(path.parent, path.name, data)
-    try:
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    return path
-
-
-def write_image_atomic(path, image) -> Path:
-    """Encode ``image`` for ``path``'s suffix (``.png``, ``.jpg``...) and write it atomically.
-
-    Unlike ``cv2.imwrite``, failure raises (``OSError``, or ``InvalidArgumentError`` for an
-    unknown suffix) instead of returning False, and never leaves a partial file.
-    """
-    path = Path(path)
-    return write_bytes_atomic(path, encode_image(image, path.suffix or ".png"))
-
-
-def write_text_atomic(path, text: str, encoding: str = "utf-8") -> Path:
-    """Write ``text`` to ``path`` atomically (temporary file in the same folder, then rename)."""
-    return write_bytes_atomic(path, text.encode(encoding))
-
-
 # --------------------------------------------------------------------------------------
 # The paper's figures: 5 (points over the gradient image) and 7 (numbered matches)
 # --------------------------------------------------------------------------------------
@@ -586,7 +500,7 @@ def _gradient_display(image, detector) -> np.ndarray:
     elif not isinstance(detector, DericheMoravecDetector):
         raise InvalidTypeError(
             "`detector` must be a hopmatch.DericheMoravecDetector (its alpha and omega give "
-            f"the gradient) or None, got {_describe(detector)}"
+            f"the gradient) or None, got {describe(detector)}"
         )
     params = detector.get_params()
     gray = as_gray_image(image, "image")

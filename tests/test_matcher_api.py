@@ -292,7 +292,10 @@ def test_fundamental_matrix_validation():
     m = HopfieldMatcher()
     with pytest.raises(InvalidArgumentError, match=r"\(3, 3\)"):
         m.setFundamentalMatrix(np.eye(3)[:2])
+    # one check for every function that takes F (issue 16): array-likes are accepted
+    m.setFundamentalMatrix([[0, 0, 0], [0, 0, -1], [0, 1, 0]])
+    assert m.getFundamentalMatrix().dtype == np.float64
     with pytest.raises(InvalidTypeError, match="F"):
-        m.setFundamentalMatrix([[1, 0, 0]] * 3)
+        m.setFundamentalMatrix("F")
     with pytest.raises(InvalidArgumentError, match="finite"):
         m.setFundamentalMatrix(np.full((3, 3), np.nan))

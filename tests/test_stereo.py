@@ -198,7 +198,7 @@ class TestDepth:
             depth_from_disparity(1.0, focal=1.0)
         with pytest.raises(InvalidArgumentError, match="doffs"):
             depth_from_disparity(1.0, Q=Q, doffs=2.0)
-        with pytest.raises(InvalidArgumentError, match=r"`focal` must be finite and in \(0"):
+        with pytest.raises(InvalidArgumentError, match=r"`focal` must be a finite number in \(0"):
             depth_from_disparity(1.0, focal=-5.0, baseline=1.0)
         with pytest.raises(InvalidArgumentError, match=r"`Q` must be a 4x4 matrix, got shape"):
             depth_from_disparity(1.0, Q=np.eye(3))

@@ -10,6 +10,8 @@ import numpy as np
 
 from .._params import Configurable, _state_params
 from .._validate import (
+    as_fundamental_matrix,
+    as_int,
     as_descriptors,
     as_image_size,
     as_mask,
@@ -246,7 +248,7 @@ class HopfieldMatcher(Configurable):
         left point's epipolar line ``F (x, y, 1)`` instead of a horizontal band, and the
         disambiguation measures offsets from that line. ``F`` is 3 x 3 as returned by
         ``cv2.findFundamentalMat`` (``x_r^T F x_l = 0``); None returns to rectified mode."""
-        self._fundamental = as_fundamental_matrix(F)
+        self._fundamental = as_fundamental_matrix(F, optional=True)
 
     def getFundamentalMatrix(self):  # noqa: N802
         """The fundamental matrix set by :meth:`setFundamentalMatrix`, or None."""
@@ -376,7 +378,7 @@ class HopfieldMatcher(Configurable):
         works unchanged. With ``compactResult=True`` queries without candidates are left
         out.
         """
-        k = _positive_int(k, "k")
+        k = as_int(k, "k", lo=1)
         res, pair = self._run(queryDescriptors, trainDescriptors, mask)
         n_train = len(pair[1])
         ranked = self._ranked_candidates(res, len(pair[0]))
@@ -465,33 +467,6 @@ class HopfieldMatcher(Configurable):
         self._pair = None
         self._fundamental = None
         self._last = None
-
-
-def as_fundamental_matrix(F):
-    """Validate a fundamental matrix: None, or a finite 3 x 3 array (returned as float64)."""
-    if F is None:
-        return None
-    if not isinstance(F, np.ndarray):
-        raise InvalidTypeError(f"`F` must be a 3 x 3 numpy array or None, got {type(F).__name__}")
-    if F.dtype == np.bool_ or not np.issubdtype(F.dtype, np.number):
-        raise InvalidTypeError(f"`F` must hold numbers, got dtype {F.dtype}")
-    if F.shape != (3, 3):
-        raise InvalidArgumentError(
-            f"`F` must have shape (3, 3), got {F.shape}; cv2.findFundamentalMat may return "
-            "several stacked solutions (9 x 3) for FM_7POINT: pick one"
-        )
-    F = np.ascontiguousarray(F, dtype=np.float64)
-    if not np.isfinite(F).all() or not F.any():
-        raise InvalidArgumentError("`F` must be finite and not all zero")
-    return F
-
-
-def _positive_int(value, name):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise InvalidTypeError(f"`{name}` must be a positive integer, got {value!r}")
-    if value < 1:
-        raise InvalidArgumentError(f"`{name}` must be a positive integer, got {value}")
-    return int(value)
 
 
 def hopfield_match(left_pts, right_pts, left_desc, right_desc, *, image_size=None, mask=None,
