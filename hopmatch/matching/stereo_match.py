@@ -17,8 +17,33 @@ from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
 from .matcher import HopfieldMatcher
 from .network import NetworkResult
 
-_DETECTOR_NAMES = {p.name for p in DericheMoravecDetector.PARAMS} - {"preset"}
-_MATCHER_NAMES = {p.name for p in HopfieldMatcher.PARAMS}
+DETECTOR_NAMES = frozenset(p.name for p in DericheMoravecDetector.PARAMS)
+MATCHER_NAMES = frozenset(p.name for p in HopfieldMatcher.PARAMS)
+
+
+def split_parameters(params: dict, caller: str = "match_stereo") -> tuple[dict, dict]:
+    """``(detector parameters, matcher parameters)`` of ``params``: the one rule by which
+    :func:`match_stereo`, the CLI and the plugins share one set of keyword arguments between
+    :class:`DericheMoravecDetector` and :class:`HopfieldMatcher` (``preset`` goes to both).
+
+    Unknown names raise :class:`~hopmatch.errors.InvalidArgumentError` naming ``caller`` and
+    listing the valid ones; values are not checked here (see :func:`stereo_pipeline`).
+    """
+    unknown = sorted(set(params) - DETECTOR_NAMES - MATCHER_NAMES)
+    if unknown:
+        raise InvalidArgumentError(
+            f"{caller} got unknown parameter(s) {unknown}; valid parameters are "
+            f"{sorted(DETECTOR_NAMES | MATCHER_NAMES)}"
+        )
+    return ({k: v for k, v in params.items() if k in DETECTOR_NAMES},
+            {k: v for k, v in params.items() if k in MATCHER_NAMES})
+
+
+def stereo_pipeline(params: dict, caller: str = "match_stereo"):
+    """``(DericheMoravecDetector, HopfieldMatcher)`` configured from one set of parameters
+    (:func:`split_parameters`); invalid values raise the classes' own errors."""
+    det_params, match_params = split_parameters(params, caller)
+    return DericheMoravecDetector(**det_params), HopfieldMatcher(**match_params)
 
 
 @dataclass(eq=False)
@@ -128,16 +153,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     >>> bool(np.median(res.disparities) == 6.0), len(res.matches) > 20
     (True, True)
     """
-    unknown = sorted(set(params) - _DETECTOR_NAMES - _MATCHER_NAMES)
-    if unknown:
-        raise InvalidArgumentError(
-            f"match_stereo got unknown parameter(s) {unknown}; valid parameters are "
-            f"{sorted(_DETECTOR_NAMES | _MATCHER_NAMES)}"
-        )
-    det_params = {k: v for k, v in params.items() if k in _DETECTOR_NAMES or k == "preset"}
-    match_params = {k: v for k, v in params.items() if k in _MATCHER_NAMES}
-    detector = DericheMoravecDetector(**det_params)
-    matcher = HopfieldMatcher(**match_params)
+    detector, matcher = stereo_pipeline(params)
 
     t0 = time.perf_counter()
     shape_l, pts_l, resp_l, desc_l = _describe(detector, left, (mask_left, "mask_left"))
