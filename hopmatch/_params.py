@@ -101,21 +101,7 @@ class Configurable:
                 setattr(cls, setter_name, _make_setter(p.name))
 
     def _init_params(self, params: dict[str, Any]) -> None:
-        known = {p.name for p in self.PARAMS}
-        unknown = sorted(set(params) - known)
-        if unknown:
-            raise InvalidArgumentError(
-                f"{type(self).__name__} got unknown parameter(s) {unknown}; "
-                f"valid parameters are {sorted(known)}"
-            )
-        self._params = {p.name: p.check(p.name, p.default) if p.default is not None else None
-                        for p in self.PARAMS}
-        if "preset" in params:
-            self._set_param("preset", params["preset"])
-            for name, value in self.PRESETS.get(self._params["preset"], {}).items():
-                self._set_param(name, value)
-        for name, value in params.items():
-            self._set_param(name, value)
+        self._params = resolve_params(self.PARAMS, self.PRESETS, params, type(self).__name__)
         self._check_consistency()
 
     def _set_param(self, name: str, value) -> None:
@@ -256,10 +242,10 @@ class Configurable:
         return {"params": dict(self._params)}
 
     def __setstate__(self, state):
-        self._init_params(_state_params(self, state))
+        self._init_params(state_params(self, state))
 
 
-def _state_params(obj, state) -> dict:
+def state_params(obj, state) -> dict:
     """The parameter dict of a pickled state, checked (a corrupt or foreign pickle raises
     :class:`InvalidArgumentError` instead of a KeyError)."""
     if not isinstance(state, dict) or not isinstance(state.get("params"), dict):
@@ -296,3 +282,26 @@ def _make_setter(name):
     setter.__name__ = "set" + camel(name)
     setter.__doc__ = f"Set ``{name}`` (validated as in the constructor)."
     return setter
+
+
+def resolve_params(specs: tuple[Param, ...], presets: dict[str, dict[str, Any]],
+                   values: dict[str, Any], owner: str) -> dict[str, Any]:
+    """Every parameter of ``specs``, checked: the defaults, then the values of the preset
+    that ``values["preset"]`` names (if given), then ``values`` themselves (explicit keywords
+    win). Unknown names raise :class:`InvalidArgumentError` naming ``owner``."""
+    by_name = {p.name: p for p in specs}
+    unknown = sorted(set(values) - set(by_name))
+    if unknown:
+        raise InvalidArgumentError(
+            f"{owner} got unknown parameter(s) {unknown}; valid parameters are "
+            f"{sorted(by_name)}"
+        )
+    out = {p.name: p.check(p.name, p.default) if p.default is not None else None
+           for p in specs}
+    if "preset" in values:
+        out["preset"] = by_name["preset"].check("preset", values["preset"])
+        for name, value in presets.get(out["preset"], {}).items():
+            out[name] = by_name[name].check(name, value)
+    for name, value in values.items():
+        out[name] = by_name[name].check(name, value)
+    return out

@@ -10,7 +10,8 @@ import numpy as np
 def warmup() -> float:
     from ._kernels import network as _k
     from .feature.detector import DericheMoravecDetector
-    from .matching.matcher import hopfield_match, neighbour_pairs_bound
+    from .matching.budget import neighbour_pairs_bound
+    from .matching.network import hopfield_match
 
     t0 = time.perf_counter()
     rng = np.random.default_rng(0)
@@ -18,8 +19,7 @@ def warmup() -> float:
     det = DericheMoravecDetector(nms_size=3)
     pts, _, g = det.detect_points(img)
     pts = pts[(pts[:, 0] > 8) & (pts[:, 1] > 8) & (pts[:, 0] < 55) & (pts[:, 1] < 39)]
-    _, desc = det._compute_on(g, tuple(__import__("cv2").KeyPoint(float(x), float(y), 5.0)
-                                       for x, y in pts))
+    _, desc = det.describe_points(g, pts)
     hopfield_match(pts, pts, desc, desc, max_disparity=4.0, record_energy=True)
     rectified = np.array([[0, 0, 0], [0, 0, -1], [0, 1, 0]], dtype=np.float64)
     hopfield_match(pts, pts, desc, desc, max_disparity=4.0, fundamental_matrix=rectified)

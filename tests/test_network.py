@@ -166,7 +166,7 @@ class TestCandidates:
     def test_row_order_and_band_index_sort_when_rows_spread(self, spread):
         """Rows spread over far more values than there are points are sorted instead of
         counted: the orders, and the pairs, are the same either way."""
-        from hopmatch.matching.network import _left_visit_order, _right_band_index
+        from hopmatch.matching.network import left_visit_order as _left_visit_order, right_band_index as _right_band_index
 
         left, right, _, _ = make_problem(3, 50, 60)
         if spread:
@@ -185,7 +185,7 @@ class TestCandidates:
             left, right, 0.0, 20.0, 2.0)
 
     def test_right_points_ordered_by_row_then_x_then_index(self):
-        from hopmatch.matching.network import _right_band_index
+        from hopmatch.matching.network import right_band_index as _right_band_index
         rng = np.random.default_rng(11)
         pts = np.column_stack([rng.choice([-3.5, -0.0, 0.0, 1e-30, 2.25, -1e6, 7.0], 400),
                                rng.choice([-2.5, -0.5, 0.0, 0.75, 3.0], 400)])
@@ -245,7 +245,7 @@ class TestCandidates:
         """Every point of a row within [x_lo, x_hi] lies between the table entries of the
         two end buckets, for any budget of entries (one bucket per row at the least) and
         for queries far outside the points."""
-        from hopmatch.matching.network import _right_band_index
+        from hopmatch.matching.network import right_band_index as _right_band_index
         rng = np.random.default_rng(4)
         pts = np.column_stack([np.round(rng.uniform(-40, 60, 300), 1),
                                rng.integers(0, 12, 300)]).astype(np.float32)
@@ -291,7 +291,7 @@ class TestCandidates:
         right[0] = (1e6, 1.0)
         left = np.column_stack([rng.uniform(0, 200, 80), rng.integers(0, 3, 80) + 0.5])
         left, right = left.astype(np.float32), right.astype(np.float32)
-        from hopmatch.matching.network import _right_band_index
+        from hopmatch.matching.network import right_band_index as _right_band_index
         _, row_start, _, rx, _ = _right_band_index(right)
         table, _, _, nb = _k.row_buckets(
             row_start, rx, _k.BUCKETS_PER_POINT * len(right) + _k.BUCKET_SLACK)

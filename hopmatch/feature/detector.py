@@ -10,10 +10,9 @@ import numpy as np
 from .._params import Configurable, Param, boolean, choice, integer, real
 from .._validate import as_gray_image, as_mask, as_points
 from ..errors import InvalidArgumentError, InvalidTypeError
-from .gradient import check_finite_gradient
 from .descriptor import gradient_windows, window_inside
-from .gradient import _deriche
-from .moravec import _select_points, response
+from .gradient import feature_image
+from .moravec import response, select_points
 
 
 def keypoints_from_arrays(points: np.ndarray, responses: np.ndarray, size: float):
@@ -110,34 +109,63 @@ class DericheMoravecDetector(Configurable):
         self._init_params(params)
 
     # -- array-level API ------------------------------------------------------------------
-    def feature_image(self, image) -> np.ndarray:
-        """The float32 image G that points and descriptors are measured on."""
-        return self._feature_image(self._gray(image))
-
-    def _gray(self, image, name: str = "image") -> np.ndarray:
-        """``image`` validated and converted to grey, within the ``max_pixels`` budget."""
-        return as_gray_image(image, name, max_pixels=self._params["max_pixels"])
-
-    def _feature_image(self, gray: np.ndarray, name: str = "image") -> np.ndarray:
+    def feature_image(self, image, name: str = "image") -> np.ndarray:
+        """The float32 image G that points and descriptors are measured on (SPEC section 1),
+        of ``image`` checked (``max_pixels`` included) and converted to grey; errors name
+        ``name``."""
         p = self._params
-        if p["on"] == "gradient":
-            return check_finite_gradient(_deriche(gray, p["alpha"], p["omega"]), gray, name,
-                                         alpha=p["alpha"], omega=p["omega"])
-        return gray.astype(np.float32)
+        gray = as_gray_image(image, name, max_pixels=p["max_pixels"])
+        return feature_image(gray, p["on"], p["alpha"], p["omega"], name)
+
+    def points_on(self, g: np.ndarray, mask=None, mask_name: str = "mask"):
+        """Moravec points (eqs. 1-2) of the feature image ``g``: ``(points (N, 2) float32
+        (x, y), responses (N,) float32)``, strongest first; ``mask`` as for :meth:`detect`."""
+        p = self._params
+        mask = as_mask(mask, g.shape, mask_name)
+        v = response(g, p["window_size"], p["window_sigma"])
+        return select_points(v, p["nms_size"], p["threshold"], p["relative_threshold"],
+                             p["window_size"] // 2 + 1, p["max_features"], p["subpixel"], mask)
 
     def detect_points(self, image, mask=None):
         """Points as arrays: ``(points (N, 2) float32 (x, y), responses (N,), G)``."""
-        gray = self._gray(image)
-        mask = as_mask(mask, gray.shape)
-        g = self._feature_image(gray)
-        pts, resp = self._points_on(g, mask)
+        g = self.feature_image(image)
+        pts, resp = self.points_on(g, mask)
         return pts, resp, g
 
-    def _points_on(self, g, mask):
-        p = self._params
-        v = response(g, p["window_size"], p["window_sigma"])
-        return _select_points(v, p["nms_size"], p["threshold"], p["relative_threshold"],
-                              p["window_size"] // 2 + 1, p["max_features"], p["subpixel"], mask)
+    def describe_points(self, g: np.ndarray, points: np.ndarray):
+        """Descriptors (eqs. 8-9) of (x, y) float32 ``points`` on the feature image ``g``:
+        ``(keep, descriptors)``, ``keep`` the (N,) bool mask of the points whose descriptor
+        window lies inside the image, ``descriptors`` one float32 row per kept point."""
+        size = self._params["descriptor_size"]
+        keep = window_inside(points, g.shape, size)
+        # np.compress: the kept rows, as points[keep] but ten times faster on (N, 2) rows
+        return keep, gradient_windows(g, np.compress(keep, points, axis=0), size)
+
+    def detect_and_describe(self, image, mask=None, *, name: str = "image",
+                            mask_name: str = "mask"):
+        """Detect and describe ``image`` with arrays only (what :meth:`detectAndCompute`
+        does, without ``cv2.KeyPoint`` objects).
+
+        Returns
+        -------
+        points : (N, 2) float32 ndarray
+            (x, y) of the points whose descriptor window fits in the image, strongest first.
+        responses : (N,) float32 ndarray
+            Their Moravec response V (eq. 1).
+        descriptors : (N, descriptorSize()) float32 ndarray
+            One row per point (eqs. 8-9).
+        gradient : (H, W) float32 ndarray
+            The feature image G they were measured on.
+        """
+        g = self.feature_image(image, name)
+        pts, resp = self.points_on(g, mask, mask_name)
+        keep, desc = self.describe_points(g, pts)
+        return np.compress(keep, pts, axis=0), resp[keep], desc, g
+
+    def keypoints(self, points: np.ndarray, responses: np.ndarray) -> tuple:
+        """``cv2.KeyPoint`` objects of (x, y) ``points`` with these ``responses``, as
+        :meth:`detect` returns them (``size`` = ``window_size``)."""
+        return keypoints_from_arrays(points, responses, float(self._params["window_size"]))
 
     # -- cv2.Feature2D API ----------------------------------------------------------------
     def detect(self, image, mask=None):
@@ -146,7 +174,7 @@ class DericheMoravecDetector(Configurable):
             masks = _per_image(mask, len(image))
             return [self.detect(im, m) for im, m in zip(image, masks)]
         pts, resp, _ = self.detect_points(image, mask)
-        return keypoints_from_arrays(pts, resp, float(self._params["window_size"]))
+        return self.keypoints(pts, resp)
 
     def compute(self, image, keypoints, descriptors=None):
         """``(keypoints, descriptors)``: float32 rows (eqs. 8-9), one per kept keypoint.
@@ -163,20 +191,9 @@ class DericheMoravecDetector(Configurable):
             out = [self.compute(im, kp) for im, kp in zip(image, keypoints)]
             return [o[0] for o in out], [o[1] for o in out]
         keypoints = _as_keypoint_tuple(keypoints)  # check before the costly gradient
-        g = self.feature_image(image)
-        return self._compute_on(g, keypoints)
+        return self._describe_keypoints(self.feature_image(image), keypoints)
 
-    def describe_points(self, g: np.ndarray, points: np.ndarray):
-        """Descriptors (eqs. 8-9) of (x, y) float32 ``points`` on the feature image ``g``:
-        ``(keep, descriptors)``, ``keep`` the (N,) bool mask of the points whose descriptor
-        window lies inside the image, ``descriptors`` one float32 row per kept point."""
-        size = self._params["descriptor_size"]
-        keep = window_inside(points, g.shape, size)
-        # np.compress: the kept rows, as points[keep] but ten times faster on (N, 2) rows
-        return keep, gradient_windows(g, np.compress(keep, points, axis=0), size)
-
-    def _compute_on(self, g, keypoints):
-        keypoints = _as_keypoint_tuple(keypoints)
+    def _describe_keypoints(self, g, keypoints: tuple):
         pts = as_points(keypoints, "keypoints") if keypoints else np.zeros((0, 2), np.float32)
         keep, desc = self.describe_points(g, pts)
         return tuple(kp for kp, k in zip(keypoints, keep.tolist()) if k), desc
@@ -193,14 +210,9 @@ class DericheMoravecDetector(Configurable):
                     "`keypoints` must be given when useProvidedKeypoints=True"
                 )
             keypoints = _as_keypoint_tuple(keypoints)
-        gray = self._gray(image)
-        mask = None if useProvidedKeypoints else as_mask(mask, gray.shape)
-        g = self._feature_image(gray)
-        if useProvidedKeypoints:
-            return self._compute_on(g, keypoints)
-        pts, resp = self._points_on(g, mask)
-        kps = keypoints_from_arrays(pts, resp, float(self._params["window_size"]))
-        return self._compute_on(g, kps)
+            return self._describe_keypoints(self.feature_image(image), keypoints)
+        pts, resp, desc, _ = self.detect_and_describe(image, mask)
+        return self.keypoints(pts, resp), desc
 
     def empty(self) -> bool:
         """Always False: the detector needs no training."""

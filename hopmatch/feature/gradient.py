@@ -46,7 +46,7 @@ def deriche_gradient(image, alpha: float = 1.0, omega: float = 0.001) -> np.ndar
     gray = as_gray_image(image)
     alpha = real(0.0, lo_open=True)("alpha", alpha)
     omega = real(0.0, lo_open=True)("omega", omega)
-    return check_finite_gradient(_deriche(gray, alpha, omega), gray, alpha=alpha, omega=omega)
+    return check_finite_gradient(deriche_magnitude(gray, alpha, omega), gray, alpha=alpha, omega=omega)
 
 
 def check_finite_gradient(g: np.ndarray, gray: np.ndarray, name: str = "image", *,
@@ -84,14 +84,26 @@ def border_width(alpha: float) -> int:
     alpha)`` pixels leave 1.2e-5 of it, at most 0.006 of G along the border of a flat 255
     image (about 150 with no border), and a Moravec response V below 1e-6 there, far under
     the detector's threshold of 1e-3. The filter's cost grows with the padded area, so the
-    border is no wider: 20 / alpha (1e-7) filtered 3.7 % more pixels on motorcycle for the
-    same matches on all 13 scenes of ``benchmarks/tune.py``.
+    border is no wider than that (docs/performance.md).
     """
     return min(int(math.ceil(BORDER_DECAY / alpha)), 256)
 
 
-def _deriche(gray: np.ndarray, alpha: float, omega: float) -> np.ndarray:
-    """``deriche_gradient`` on an already validated grey image.
+def feature_image(gray: np.ndarray, on: str, alpha: float, omega: float,
+                  name: str = "image") -> np.ndarray:
+    """The float32 image G that points and descriptors are measured on (SPEC section 1):
+    the Canny-Deriche gradient magnitude of the validated grey image ``gray`` when ``on``
+    is ``"gradient"`` (checked finite, :func:`check_finite_gradient`), else its grey
+    levels."""
+    if on == "gradient":
+        return check_finite_gradient(deriche_magnitude(gray, alpha, omega), gray, name,
+                                     alpha=alpha, omega=omega)
+    return gray.astype(np.float32)
+
+
+def deriche_magnitude(gray: np.ndarray, alpha: float, omega: float) -> np.ndarray:
+    """:func:`deriche_gradient` on an already validated grey image (as
+    :func:`~hopmatch._validate.as_gray_image` returns it) and validated parameters.
 
     The recursive filter starts from zero outside the image, which puts strong false edges
     along the border (up to 77 grey levels on a flat 128 image with alpha = 1). The image is

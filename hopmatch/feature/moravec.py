@@ -210,13 +210,14 @@ def moravec_points(
     margin = integer(0)("margin", margin)
     max_features = integer(0)("max_features", max_features)
     mask = as_mask(mask, v.shape)
-    return _select_points(v, nms_size, threshold, relative_threshold, margin, max_features,
+    return select_points(v, nms_size, threshold, relative_threshold, margin, max_features,
                           bool(subpixel), mask)
 
 
-def _select_points(v, nms_size, threshold, relative_threshold, margin, max_features, subpixel,
+def select_points(v, nms_size, threshold, relative_threshold, margin, max_features, subpixel,
                    mask):
-    """``moravec_points`` on validated arguments."""
+    """:func:`moravec_points` (eq. 2) on validated arguments: ``v`` a C-contiguous float32
+    response, ``mask`` None or an (H, W) bool array."""
     radius = nms_size // 2
     thr = threshold
     if relative_threshold and v.size:  # 0 * max V would leave max(threshold, 0.0) unchanged

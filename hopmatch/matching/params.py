@@ -3,7 +3,11 @@ function API)."""
 
 from __future__ import annotations
 
-from .._params import Param, boolean, choice, integer, real
+import dataclasses
+from typing import Any
+
+from .._params import Param, boolean, choice, integer, real, resolve_params
+from ..errors import InvalidArgumentError
 
 #: Parameter specs shared by :class:`HopfieldMatcher` and :func:`hopfield_match`.
 MATCHER_PARAMS: tuple[Param, ...] = (
@@ -77,3 +81,29 @@ PRESETS["default"] = {
     name: next(p.default for p in MATCHER_PARAMS if p.name == name)
     for name in PRESETS["paper"]
 }
+
+#: The matcher's parameters as one frozen value (one field per :data:`MATCHER_PARAMS` entry,
+#: same name): what :func:`~hopmatch.matching.network.hopfield_match` runs with, recorded in
+#: each :class:`~hopmatch.matching.network.NetworkResult` with ``max_disparity`` resolved.
+MatcherConfig = dataclasses.make_dataclass(
+    "MatcherConfig", [(p.name, Any) for p in MATCHER_PARAMS], frozen=True,
+    namespace={"__doc__": "The Hopfield matcher's parameters (see docs/parameters.md).",
+               "__module__": __name__})
+
+
+def check_disparity_order(min_disparity: float, max_disparity: float | None) -> None:
+    """Refuse ``max_disparity < min_disparity`` (None: resolved later, not checked)."""
+    if max_disparity is not None and max_disparity < min_disparity:
+        raise InvalidArgumentError(
+            f"`max_disparity` ({max_disparity}) must not be below `min_disparity` "
+            f"({min_disparity}); swap them or leave max_disparity=None (a quarter "
+            "of the image width)"
+        )
+
+
+def matcher_config(params: dict, owner: str = "hopfield_match") -> MatcherConfig:
+    """:data:`MatcherConfig` of keyword parameters (defaults, then ``preset``, then the
+    keywords), each checked; unknown names raise naming ``owner``."""
+    values = resolve_params(MATCHER_PARAMS, PRESETS, params, owner)
+    check_disparity_order(values["min_disparity"], values["max_disparity"])
+    return MatcherConfig(**values)

@@ -9,13 +9,13 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-import warnings
-
-from .._validate import as_mask
-from ..errors import ImageSizeWarning, InvalidArgumentError
+from .._validate import as_fundamental_matrix, check_coordinate_range
+from .._warnings import warn
+from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
 from .matcher import HopfieldMatcher
-from .network import NetworkResult
+from .network import NetworkResult, PairInfo, match_pair
+from .params import matcher_config
 
 DETECTOR_NAMES = frozenset(p.name for p in DericheMoravecDetector.PARAMS)
 MATCHER_NAMES = frozenset(p.name for p in HopfieldMatcher.PARAMS)
@@ -109,18 +109,9 @@ class StereoMatchResult:
         )
 
 
-def _describe(detector, image, mask):
-    name = "left" if mask[1] == "mask_left" else "right"
-    gray = detector._gray(image, name)
-    m = as_mask(mask[0], gray.shape, mask[1])
-    g = detector._feature_image(gray, name)
-    pts, resp = detector._points_on(g, m)
-    keep, desc = detector.describe_points(g, pts)
-    return gray.shape, np.compress(keep, pts, axis=0), resp[keep], desc
-
-
 def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_matrix=None,
-                 record_energy: bool = False, **params) -> StereoMatchResult:
+                 record_energy: bool = False, detector: DericheMoravecDetector | None = None,
+                 matcher: HopfieldMatcher | None = None, **params) -> StereoMatchResult:
     """Detect Moravec points on a stereo pair and match them with the Hopfield network.
 
     Parameters
@@ -130,11 +121,15 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         unless ``fundamental_matrix`` is given.
     mask_left, mask_right : (H, W) uint8 or bool ndarray, optional
         Where keypoints may be detected.
-    fundamental_matrix : (3, 3) ndarray, optional
+    fundamental_matrix : (3, 3) array-like, optional
         Match an unrectified pair along epipolar lines (``x_r^T F x_l = 0``, as
         ``cv2.findFundamentalMat`` returns it) instead of image rows.
     record_energy : bool
         Keep the network energy after every iteration (``result.network.energy_trace``).
+    detector, matcher : DericheMoravecDetector, HopfieldMatcher, optional
+        Ready instances to use (their parameters; the matcher's pair information is left
+        untouched). Parameters of a part given as an instance cannot also be passed as
+        keywords.
     **params
         Any :class:`DericheMoravecDetector` or :class:`HopfieldMatcher` parameter;
         ``preset`` applies to both.
@@ -142,6 +137,8 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     Returns
     -------
     StereoMatchResult
+        ``result.network.config`` holds the matcher parameters used (``max_disparity``
+        resolved).
 
     Examples
     --------
@@ -153,30 +150,52 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     >>> bool(np.median(res.disparities) == 6.0), len(res.matches) > 20
     (True, True)
     """
-    detector, matcher = stereo_pipeline(params)
+    det_params, match_params = split_parameters(params)
+    for name, given, keywords in (("detector", detector, det_params),
+                                  ("matcher", matcher, match_params)):
+        if given is not None and keywords:
+            raise InvalidArgumentError(
+                f"match_stereo got a `{name}` instance and its parameters {sorted(keywords)} "
+                f"as keywords: set them on the instance instead"
+            )
+    if detector is not None and not isinstance(detector, DericheMoravecDetector):
+        raise InvalidTypeError(
+            f"`detector` must be a DericheMoravecDetector, got {type(detector).__name__}")
+    if matcher is not None and not isinstance(matcher, HopfieldMatcher):
+        raise InvalidTypeError(
+            f"`matcher` must be a HopfieldMatcher, got {type(matcher).__name__}")
+    detector = detector if detector is not None else DericheMoravecDetector(**det_params)
+    config = matcher.config() if matcher is not None else matcher_config(match_params,
+                                                                          "match_stereo")
+    fundamental = as_fundamental_matrix(fundamental_matrix, "fundamental_matrix",
+                                        optional=True)
 
     t0 = time.perf_counter()
-    shape_l, pts_l, resp_l, desc_l = _describe(detector, left, (mask_left, "mask_left"))
+    pts_l, resp_l, desc_l, g_l = detector.detect_and_describe(
+        left, mask_left, name="left", mask_name="mask_left")
     t1 = time.perf_counter()
-    shape_r, pts_r, resp_r, desc_r = _describe(detector, right, (mask_right, "mask_right"))
+    pts_r, resp_r, desc_r, g_r = detector.detect_and_describe(
+        right, mask_right, name="right", mask_name="mask_right")
     t2 = time.perf_counter()
-    if fundamental_matrix is None and shape_l[0] != shape_r[0]:
+    shape_l, shape_r = g_l.shape, g_r.shape
+    del g_l, g_r
+    if fundamental is None and shape_l[0] != shape_r[0]:
         raise InvalidArgumentError(
             f"`left` and `right` must have the same height (a rectified pair), got "
             f"{shape_l[0]} and {shape_r[0]}; for an unrectified pair pass fundamental_matrix"
         )
-    matcher.setFundamentalMatrix(fundamental_matrix)
     size_l, size_r = shape_l[::-1], shape_r[::-1]
-    if fundamental_matrix is None and shape_l[1] != shape_r[1]:
-        warnings.warn(
-            f"`left` is {shape_l[1]} px wide and `right` {shape_r[1]} px: the images of a "
-            "rectified pair have one size; matching goes on (disparities are measured from "
-            "the left edge of both), but check that the pair is the one you meant",
-            ImageSizeWarning, stacklevel=2)
+    if fundamental is None and shape_l[1] != shape_r[1]:
+        warn(f"`left` is {shape_l[1]} px wide and `right` {shape_r[1]} px: the images of a "
+             "rectified pair have one size; matching goes on (disparities are measured from "
+             "the left edge of both), but check that the pair is the one you meant",
+             ImageSizeWarning)
         size_r = size_l  # warned once here; the matcher need not repeat it
-    matcher.setPairInfo(pts_l, pts_r, size_l, size_r)
-    # warnings: stacklevel 4 = our caller
-    net = matcher._run(desc_l, desc_r, None, record_energy, trusted=True)[0]
+    check_coordinate_range(pts_l, "left")
+    check_coordinate_range(pts_r, "right")
+    pair = PairInfo(pts_l, pts_r, size_l, size_r)
+    net = match_pair(pair, desc_l, desc_r, config, fundamental=fundamental,
+                     record_energy=record_energy, descriptors_checked=True)
     t3 = time.perf_counter()
     return StereoMatchResult(
         points_left=pts_l, points_right=pts_r, responses_left=resp_l, responses_right=resp_r,

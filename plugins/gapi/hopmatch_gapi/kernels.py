@@ -13,31 +13,21 @@ import numpy as np
 
 import hopmatch
 from hopmatch.errors import InvalidArgumentError
+from hopmatch.matching.stereo_match import split_parameters, stereo_pipeline
 
 from .ops import GDetect, GMatch, GMatchPoints
 
 __all__ = ["kernels", "split_params"]
 
-_DETECTOR_NAMES = {p.name for p in hopmatch.DericheMoravecDetector.PARAMS}
-_MATCHER_NAMES = {p.name for p in hopmatch.HopfieldMatcher.PARAMS}
-
-
 def split_params(params: dict) -> tuple[dict, dict]:
-    """``(detector params, matcher params)`` of ``params``, checked by both classes.
+    """``(detector params, matcher params)`` of ``params``, checked by both classes
+    (:func:`hopmatch.matching.stereo_match.split_parameters`; ``preset`` goes to both).
 
-    ``preset`` goes to both. Unknown names raise ``InvalidArgumentError`` listing the valid
-    ones; invalid values raise the classes' own errors.
+    Unknown names raise ``InvalidArgumentError`` listing the valid ones; invalid values
+    raise the classes' own errors.
     """
-    unknown = sorted(set(params) - _DETECTOR_NAMES - _MATCHER_NAMES)
-    if unknown:
-        raise InvalidArgumentError(
-            f"hopmatch_gapi got unknown parameter(s) {unknown}; valid parameters are "
-            f"{sorted(_DETECTOR_NAMES | _MATCHER_NAMES)}"
-        )
-    det = {k: v for k, v in params.items() if k in _DETECTOR_NAMES}
-    mat = {k: v for k, v in params.items() if k in _MATCHER_NAMES}
-    hopmatch.DericheMoravecDetector(**det)  # validate now, not inside the graph
-    hopmatch.HopfieldMatcher(**mat)
+    det, mat = split_parameters(params, caller="hopmatch_gapi")
+    stereo_pipeline(params, caller="hopmatch_gapi")  # validate now, not inside the graph
     return det, mat
 
 
@@ -48,15 +38,15 @@ def _points(pts) -> np.ndarray:
 
 def _describe_and_match(detector, matcher, left, pts_left, right, pts_right):
     """The describe + match half of :func:`hopmatch.match_stereo`, on given points."""
-    gl, gr = detector._gray(left, "left"), detector._gray(right, "right")
+    gl, gr = detector.feature_image(left, "left"), detector.feature_image(right, "right")
     if gl.shape[0] != gr.shape[0]:
         raise InvalidArgumentError(
             f"`left` and `right` must have the same height (a rectified pair), got "
             f"{gl.shape[0]} and {gr.shape[0]}"
         )
     described = []
-    for gray, pts in ((gl, pts_left), (gr, pts_right)):
-        keep, desc = detector.describe_points(detector.feature_image(gray), pts)
+    for g, pts in ((gl, pts_left), (gr, pts_right)):
+        keep, desc = detector.describe_points(g, pts)
         described.append((pts[keep], desc))
     (pl, dl), (pr, dr) = described
     matcher.setPairInfo(pl, pr, gl.shape[::-1], gr.shape[::-1])

@@ -1,0 +1,32 @@
+"""Warnings that point at the user's code.
+
+hopmatch warns from deep inside its own call chains (``HopfieldMatcher.match`` ->
+``match_pair`` ...), whose depth differs by entry point, so no fixed ``stacklevel`` is right
+for all of them: :func:`warn` attributes each warning to the first frame outside the
+hopmatch package, the line of the user's code that called hopmatch.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import warnings
+
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
+
+
+def caller_stacklevel() -> int:
+    """The ``stacklevel`` that makes ``warnings.warn``, called by the caller of this
+    function, report the first frame whose code lies outside the hopmatch package."""
+    frame = sys._getframe(1)  # the frame that will call warnings.warn: stacklevel 1
+    level = 1
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(
+            _PACKAGE_DIR):
+        frame = frame.f_back
+        level += 1
+    return level
+
+
+def warn(message: str, category: type[Warning]) -> None:
+    """``warnings.warn(message, category)`` attributed to the user's line of code."""
+    warnings.warn(message, category, stacklevel=caller_stacklevel())

@@ -1,0 +1,98 @@
+"""Resource budgets of the network, checked before anything of their size is allocated."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._kernels import network as _k
+from ..errors import BudgetExceededError
+
+#: ``record_energy`` keeps one float64 per allowed iteration: refuse more than this many
+#: (1 GiB) rather than let the allocation fail.
+MAX_ENERGY_TRACE = 2**27
+
+
+def neighbour_pairs_bound(points: np.ndarray, half_w: float, half_h: float) -> int:
+    """An upper bound on the number of (ordered) neighbour pairs the network stores: points
+    are bucketed in cells of ``half_w x half_h`` (as the kernel does), and every neighbour
+    of a point lies in the 3 x 3 cells around it. Counted on a dense grid in O(N + cells)
+    when it has at most ``8 N + 1024`` cells, else on the occupied cells in O(N log N)
+    (:func:`sparse_neighbour_pairs_bound`); O(N) memory either way."""
+    n = len(points)
+    if n < 2:
+        return 0
+    cw, ch = cell_size(half_w, half_h)
+    dense = _k.grid_neighbour_bound(np.ascontiguousarray(points, dtype=np.float32), cw, ch,
+                                    8 * n + 1024)
+    return int(dense) if dense >= 0 else sparse_neighbour_pairs_bound(points, half_w, half_h)
+
+
+def cell_size(half_w: float, half_h: float) -> tuple[float, float]:
+    """The neighbour grid's cell (width, height) for a ``2 half_w x 2 half_h`` window."""
+    return max(float(half_w) * (1.0 + 1e-6), 1e-3), max(float(half_h) * (1.0 + 1e-6), 1e-3)
+
+
+def sparse_neighbour_pairs_bound(points: np.ndarray, half_w: float, half_h: float) -> int:
+    """:func:`neighbour_pairs_bound` counted on the occupied cells only (sorted cell keys),
+    for points spread over far more cells than there are points."""
+    n = len(points)
+    if n < 2:
+        return 0
+    cw, ch = cell_size(half_w, half_h)
+    pts = points.astype(np.float64)
+    cx = np.floor((pts[:, 0] - pts[:, 0].min()) / cw).astype(np.int64) + 1
+    cy = np.floor((pts[:, 1] - pts[:, 1].min()) / ch).astype(np.int64) + 1
+    stride = int(cy.max()) + 2  # coordinates within +-2**20 keep cx * stride in int64
+    keys, counts = np.unique(cx * stride + cy, return_counts=True)
+    around = np.zeros(len(keys), dtype=np.int64)
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            other = keys + dx * stride + dy
+            pos = np.minimum(np.searchsorted(keys, other), len(keys) - 1)
+            around += np.where(keys[pos] == other, counts[pos], 0)
+    return int((counts * around).sum()) - n
+
+
+def check_neighbour_budget(points: np.ndarray, config) -> None:
+    """Refuse point sets whose neighbour lists alone would exceed ``max_interactions``
+    entries (many coincident or crowded points), before the kernel allocates them."""
+    max_interactions = config.max_interactions
+    if len(points) * (len(points) - 1) <= max_interactions:
+        return
+    bound = neighbour_pairs_bound(points, config.neighbour_width / 2,
+                                  config.neighbour_height / 2)
+    if bound > max_interactions:
+        raise BudgetExceededError(
+            f"the left points are so crowded that their neighbour lists could hold {bound} "
+            f"pairs (an upper bound), more than max_interactions={max_interactions}; "
+            "remove duplicate keypoints, shrink neighbour_width/neighbour_height, use fewer "
+            "keypoints, or raise max_interactions"
+        )
+
+
+def interaction_capacity(ni, nk, start, nb_off, nb_idx, max_interactions: int) -> int:
+    """Room to allocate for the interactions: the cheap :func:`_k.interaction_bound` when it
+    is within ``max_interactions``, else the exact count, which must be within it
+    (:class:`BudgetExceededError` otherwise, before anything of that size is allocated)."""
+    bound = _k.interaction_bound(start, nb_off, nb_idx)
+    if bound <= max_interactions:
+        return bound
+    n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
+    if n_inter > max_interactions:
+        raise BudgetExceededError(
+            f"the network would have {n_inter} interactions, more than max_interactions="
+            f"{max_interactions}; shrink neighbour_width/neighbour_height, narrow the "
+            "disparity range, use fewer keypoints, or raise max_interactions"
+        )
+    return n_inter
+
+
+def check_energy_trace(max_iterations: int, record_energy: bool) -> None:
+    """Refuse ``record_energy`` when its trace (one float64 per allowed iteration) would
+    exceed :data:`MAX_ENERGY_TRACE` entries."""
+    if record_energy and max_iterations + 1 > MAX_ENERGY_TRACE:
+        raise BudgetExceededError(
+            f"record_energy=True keeps one float64 per iteration, and max_iterations="
+            f"{max_iterations} would need {8 * (max_iterations + 1) / 2**30:.3g} GiB; lower "
+            f"max_iterations to at most {MAX_ENERGY_TRACE - 1} or pass record_energy=False"
+        )

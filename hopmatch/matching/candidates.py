@@ -1,0 +1,101 @@
+"""SPEC section 3: the neurons, candidate pairs in the search window of each left point."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._kernels import network as _k
+from ..errors import BudgetExceededError
+from .similarity import EPS
+
+def row_span_limit(n: int) -> int:
+    """Largest row span the candidate search counts rows over for n points (beyond it, it
+    sorts them: ``_k.row_order``)."""
+    return 4 * n + 1024
+
+
+def right_band_index(right):
+    """What the rectified candidate search (``band_candidates``) needs of the right points:
+    the distinct rows ``floor(y)``, each row's offsets in the order below, the points row by
+    row with x increasing (ties: index increasing), and the coordinates in that order
+    (``_k.band_index``)."""
+    return _k.band_index(right, row_span_limit(len(right)))
+
+
+def left_visit_order(left) -> np.ndarray:
+    """The order the candidate search visits the left points in: row by row, index order
+    within a row (cache-friendly, ``_k.row_order``)."""
+    return _k.row_order(left, row_span_limit(len(left)))[0]
+
+
+def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max_neurons,
+                    fundamental=None, *, sort=True, contrast_gate=None):
+    """Neurons: pairs with ``min_disparity <= xl - xr <= max_disparity`` and
+    ``|yl - yr| <= max_vertical`` (SPEC section 3's search window), as ``(ni, nk)``.
+
+    With a fundamental matrix, the band is around each left point's epipolar line instead:
+    the right point's distance to ``F (xl, yl, 1)`` is at most ``max_vertical``.
+    Raises :class:`BudgetExceededError` before allocating more than ``max_neurons``.
+
+    The pairs are sorted by (i, k); with ``sort=False`` they are only grouped by left point
+    (in the order the search visited them): sort what is left after gating with
+    ``_k.group_by_left`` (which can gate them) then ``_k.sort_groups``, which is cheaper.
+
+    ``contrast_gate=(contrasts, gate)`` (rectified search only; ``contrasts`` from
+    :func:`window_contrasts`) leaves out the pairs :func:`similarity_distance` would put past
+    ``gate`` on their contrasts alone; the budget still counts them.
+    """
+    band = (np.float32(min_disparity), np.float32(max_disparity), np.float32(max_vertical))
+    budget = np.int64(min(max_neurons, 2**62))
+    if fundamental is None:
+        index = right_band_index(right)
+        if contrast_gate is None:
+            scale_l, scale_r, gate = np.zeros(len(left)), np.zeros(len(right)), np.inf
+        else:
+            (scale_l, scale_r), gate = contrast_gate
+            scale_r = scale_r[index[2]]
+        ni, nk, n = _k.band_candidates(left, left_visit_order(left), *index, *band, budget,
+                                       scale_l, np.ascontiguousarray(scale_r, np.float64),
+                                       float(gate), EPS)
+    else:
+        order = np.argsort(right[:, 0], kind="stable")
+        ni, nk, n = _k.epipolar_candidates(
+            left, right, order, np.ascontiguousarray(right[order, 0]),
+            np.ascontiguousarray(fundamental, dtype=np.float64), *band, budget)
+    if n > max_neurons:
+        raise BudgetExceededError(
+            f"the network would have {n} neurons (candidate pairs), more than max_neurons="
+            f"{max_neurons}; narrow the disparity range (min_disparity/max_disparity) or "
+            "max_vertical, use fewer keypoints, or raise max_neurons"
+        )
+    if sort:
+        ni, nk, _ = _k.group_by_left(ni, nk, np.empty(len(ni)), len(left), False, 0.0)
+        _k.sort_groups(ni, nk, np.empty(len(ni)))
+    return ni, nk
+
+
+def vertical_offsets(left, right, ni, nk, fundamental=None) -> np.ndarray:
+    """The "vertical disparity" of each pair used by section 4: ``yl - yr`` on a rectified
+    pair, or the signed distance of the right point to the left point's epipolar line."""
+    if fundamental is None:
+        return left[ni, 1].astype(np.float64) - right[nk, 1]
+    f = np.asarray(fundamental, dtype=np.float64)
+    hom = np.c_[left[ni].astype(np.float64), np.ones(len(ni))]
+    lines = hom @ f.T
+    norm = np.hypot(lines[:, 0], lines[:, 1])
+    num = lines[:, 0] * right[nk, 0] + lines[:, 1] * right[nk, 1] + lines[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(norm > 0, num / norm, np.inf)
+
+
+
+
+def resolve_max_disparity(max_disparity, query_size, query_pts, train_pts) -> float:
+    """``max_disparity``, or when it is None a quarter of the query image's width (or of the
+    keypoints' horizontal extent when the image size is unknown)."""
+    if max_disparity is not None:
+        return float(max_disparity)
+    if query_size is not None:
+        return 0.25 * query_size[0]
+    xs = [pts[:, 0].max() for pts in (query_pts, train_pts) if len(pts)]
+    return 0.25 * (float(max(xs)) + 1.0) if xs else 0.0

@@ -1,0 +1,110 @@
+"""What the matcher tells the user about the pair: the geometry warnings and the
+rectification check (docs/robustness.md, "Warnings")."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._warnings import warn
+from ..errors import (
+    BudgetExceededError,
+    DisparityRangeWarning,
+    ImageSizeWarning,
+    UnrectifiedPairWarning,
+)
+from .candidates import candidate_pairs
+from .similarity import similarity_distance
+
+# Rectification check (docs/robustness.md): how many left points are sampled, the band
+# searched around them, and when the pair is called unrectified.
+RECTIFICATION_SAMPLE = 300
+RECTIFICATION_MIN_EVIDENCE = 20
+RECTIFICATION_RATIO = 0.6
+RECTIFICATION_MAX_PAIRS = 300_000
+#: ... and only if fewer than this fraction of the clear look-alikes lie in the band: on
+#: rectified low-texture pairs (the chessboards) half of the look-alikes are wrong, which
+#: can push the median offset past 2 px, but 19-65 % still sit in the band; on pairs shifted
+#: by 3 px at most 15 % do (benchmarks/rectification_check.py).
+RECTIFICATION_MAX_IN_BAND = 0.15
+#: The check runs only when the matches are fewer than this fraction of the keypoints (on
+#: the 13 shared scenes with ground truth the defaults keep 4.5 % (KITTI) to 48 %).
+RECTIFICATION_SUSPICIOUS = 0.03
+
+
+def rectification_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity, max_vertical):
+    """Median ``|y_left - y_right|`` of unambiguous best look-alikes in a generous band.
+
+    Up to :data:`RECTIFICATION_SAMPLE` left points (evenly spaced in the keypoint order) are
+    compared by the network's similarity distance with every right point within the
+    disparity range and ``band = max(16, 4 * max_vertical)`` rows. A point counts when its
+    best candidate is clearly better than its second (distance ratio below
+    :data:`RECTIFICATION_RATIO`). Returns ``(median |dy|, number of points counted,
+    fraction of them with |dy| <= max(1, max_vertical))``, or None when there is too little
+    to judge (fewer than 2 x RECTIFICATION_MIN_EVIDENCE points
+    on a side, or more than RECTIFICATION_MAX_PAIRS pairs to compare).
+    """
+    if min(len(q_pts), len(t_pts)) < 2 * RECTIFICATION_MIN_EVIDENCE:
+        return None
+    n = min(len(q_pts), RECTIFICATION_SAMPLE)
+    sample = np.unique(np.linspace(0, len(q_pts) - 1, n).astype(np.int64))
+    left = np.ascontiguousarray(q_pts[sample])
+    band = max(16.0, 4.0 * max_vertical)
+    try:
+        ni, nk = candidate_pairs(left, t_pts, min_disparity, max_disparity, band,
+                                 RECTIFICATION_MAX_PAIRS)
+    except BudgetExceededError:
+        return None
+    if len(ni) == 0:
+        return None
+    sim = similarity_distance(np.ascontiguousarray(qd[sample]), td, ni, nk)
+    order = np.lexsort((sim, ni))
+    ni_o, nk_o, sim_o = ni[order], nk[order], sim[order]
+    first = np.flatnonzero(np.r_[True, ni_o[1:] != ni_o[:-1]])
+    counts = np.diff(np.r_[first, len(ni_o)])
+    has_two = counts >= 2
+    best, second = first[has_two], first[has_two] + 1
+    clear = sim_o[best] < RECTIFICATION_RATIO * sim_o[second]
+    best = best[clear]
+    if len(best) < RECTIFICATION_MIN_EVIDENCE:
+        return None
+    dy = np.abs(left[ni_o[best], 1].astype(np.float64) - t_pts[nk_o[best], 1])
+    return (float(np.median(dy)), int(len(best)),
+            float(np.mean(dy <= max(1.0, max_vertical))))
+
+
+def warn_geometry(query_size, train_size, fundamental, config) -> None:
+    """Warn (:class:`~hopmatch.errors.ImageSizeWarning`) when a rectified pair's images
+    differ in size, and (:class:`~hopmatch.errors.DisparityRangeWarning`) when the
+    disparity range of ``config`` (resolved) does not fit the left image's width."""
+    if fundamental is None and query_size is not None and train_size is not None \
+            and query_size != train_size:
+        warn(f"the query image is {query_size[0]} x {query_size[1]} and the train image "
+             f"{train_size[0]} x {train_size[1]} (width x height): a rectified pair has images "
+             "of one size; rectify the pair first or call setFundamentalMatrix(F)",
+             ImageSizeWarning)
+    if query_size is not None and (config.max_disparity >= query_size[0]
+                                   or -config.min_disparity >= query_size[0]):
+        warn(f"the disparity range [{config.min_disparity:g}, {config.max_disparity:g}] does "
+             f"not fit the left image's width ({query_size[0]} px): disparities beyond it can "
+             "never occur and only add candidates; narrow the range (max_disparity)",
+             DisparityRangeWarning)
+
+
+def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config) -> None:
+    """Warn (:class:`~hopmatch.errors.UnrectifiedPairWarning`) when the network kept few
+    matches (below :data:`RECTIFICATION_SUSPICIOUS` of the keypoints) and the clearest
+    look-alikes of the left points lie off their rows (:func:`rectification_evidence`);
+    rectified pairs with many matches do not pay for the check."""
+    if n_matches >= RECTIFICATION_SUSPICIOUS * min(len(q_pts), len(t_pts)):
+        return
+    if fundamental is not None or not len(qd) or not len(td):
+        return
+    ev = rectification_evidence(q_pts, t_pts, qd, td, config.min_disparity,
+                                config.max_disparity, config.max_vertical)
+    if (ev is not None and ev[0] > max(2.0, 2.0 * config.max_vertical)
+            and ev[2] < RECTIFICATION_MAX_IN_BAND):
+        warn(f"the pair does not look rectified: the clearest look-alikes of {ev[1]} sampled "
+             f"left points lie a median {ev[0]:.1f} px above or below them (max_vertical="
+             f"{config.max_vertical:g}), so few true matches can be found; rectify the pair "
+             "(hopmatch.stereo.rectify) or call setFundamentalMatrix(F)",
+             UnrectifiedPairWarning)
