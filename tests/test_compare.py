@@ -201,23 +201,6 @@ def test_markdown_shows_nan_as_a_dash():
     assert got["precision@1"] == "nan" and got["keypoints_left"] == ""
 
 
-def test_plots_without_matplotlib(tmp_path, monkeypatch):
-    for name in ("matplotlib", "matplotlib.figure", "matplotlib.backends",
-                 "matplotlib.backends.backend_agg"):
-        monkeypatch.setitem(sys.modules, name, None)
-    with pytest.raises(ImportError, match=r"pip install hopmatch\[all\]"):
-        viz.plot_precision_vs_correct([], tmp_path / "a.png")
-    with pytest.raises(ImportError, match=r"pip install hopmatch\[all\]"):
-        viz.plot_error_histogram({"m": [0.1]}, tmp_path / "b.png")
-    assert list(tmp_path.iterdir()) == []
-
-
-def test_plot_rejects_rows_without_the_columns(tmp_path):
-    pytest.importorskip("matplotlib")
-    with pytest.raises(ValueError, match="correct@1"):
-        viz.plot_precision_vs_correct([{"method": "m"}], tmp_path / "a.png")
-
-
 # --------------------------------------------------------------------------------------
 # hopmatch eval
 # --------------------------------------------------------------------------------------

@@ -1,5 +1,5 @@
 """The paper's figures: Figure 5 (points over the gradient magnitude) and Figure 7 (numbered
-matches), from :mod:`hopmatch.viz` and from ``hopmatch match --figures``.
+matches), from :mod:`hopmatch.viz.figures` and from ``hopmatch match --figures``.
 
 The command runs through its real entry point in subprocesses (``python -m hopmatch.cli``),
 as in ``tests/test_cli.py``.

@@ -1,0 +1,277 @@
+"""Drawing keypoints, matches and sparse disparities with OpenCV.
+
+Every function returns a new uint8 BGR image, as ``cv2.imwrite`` expects. Images may be
+grey or BGR(A), 8-bit, 16-bit or float; other depths than 8-bit are stretched to 0..255
+for display (:func:`as_display_image`). Keypoints are ``cv2.KeyPoint`` sequences or
+``(N, 2)`` (x, y) arrays; matches are ``cv2.DMatch`` sequences or ``(M, 2)`` (left index,
+right index) arrays (:func:`as_index_pairs`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import cv2
+import numpy as np
+
+from .._validate import as_gray_image, as_match_indices, as_points
+from ..errors import InvalidArgumentError, InvalidTypeError
+
+__all__ = [
+    "GREEN",
+    "GREY",
+    "RED",
+    "as_display_image",
+    "as_index_pairs",
+    "draw_disparity",
+    "draw_keypoints",
+    "draw_matches",
+]
+
+#: BGR colours of correct, wrong and unknown matches.
+GREEN = (0, 200, 0)
+RED = (0, 0, 255)
+GREY = (160, 160, 160)
+
+
+# --------------------------------------------------------------------------------------
+# Inputs
+# --------------------------------------------------------------------------------------
+
+
+def as_display_image(image, name: str) -> np.ndarray:
+    """``image`` as a C-contiguous uint8 BGR array to draw on.
+
+    An 8-bit BGR or BGRA array keeps its three colour channels (a copy only when the
+    channels are not contiguous already); anything else must pass
+    :func:`hopmatch._validate.as_gray_image` (type, depth, shape, finiteness), is stretched
+    to 0..255 (``cv2.NORM_MINMAX``) unless it is 8-bit, and becomes three equal channels.
+
+    Raises
+    ------
+    InvalidArgumentError, InvalidTypeError
+        ``image`` is empty or not an image; the message names ``name``.
+    """
+    if isinstance(image, np.ndarray) and image.ndim == 3 and image.shape[2] in (3, 4) \
+            and image.dtype == np.uint8:
+        bgr = image[:, :, :3]
+        if bgr.shape[0] == 0 or bgr.shape[1] == 0:
+            raise InvalidArgumentError(f"`{name}` must not be empty, got shape {image.shape}")
+        return np.ascontiguousarray(bgr)
+    gray = as_gray_image(image, name)
+    if gray.dtype != np.uint8:
+        gray = cv2.normalize(gray.astype(np.float32), None, 0, 255, cv2.NORM_MINMAX)
+        gray = gray.astype(np.uint8)
+    return cv2.cvtColor(gray, cv2.COLOR_GRAY2BGR)
+
+
+def _is_sequence_of(values, kind) -> bool:
+    return isinstance(values, Sequence) and not isinstance(values, (str, bytes)) \
+        and all(isinstance(v, kind) for v in values)
+
+
+def as_index_pairs(matches, n_left: int, n_right: int) -> np.ndarray:
+    """``(M, 2)`` int64 (left index, right index) pairs of ``matches``.
+
+    ``matches`` is a sequence of ``cv2.DMatch`` (``queryIdx`` indexes the left keypoints,
+    ``trainIdx`` the right ones) or anything ``np.asarray`` turns into an ``(M, 2)``
+    integer array, nested lists such as ``[[0, 0], [1, 2]]`` included. Indices must be in
+    ``[0, n_left)`` and ``[0, n_right)``; the checks are those of
+    :func:`hopmatch._validate.as_match_indices`.
+
+    Raises
+    ------
+    InvalidTypeError
+        Not DMatches nor integers.
+    InvalidArgumentError
+        Not ``(M, 2)``, or an index refers to a keypoint that does not exist.
+    """
+    if not _is_sequence_of(matches, cv2.DMatch) and not isinstance(matches, np.ndarray):
+        try:
+            matches = np.asarray(matches)
+        except (TypeError, ValueError):
+            pass  # as_match_indices names the argument and what it got
+    return as_match_indices(matches, n_query=n_left, n_train=n_right)
+
+
+def _as_keypoints(keypoints, name: str) -> list:
+    """A list of ``cv2.KeyPoint`` from keypoints or an ``(N, 2)`` (x, y) array (size 5)."""
+    if _is_sequence_of(keypoints, cv2.KeyPoint):
+        return list(keypoints)
+    pts = as_points(keypoints, name)
+    return [cv2.KeyPoint(float(x), float(y), 5.0) for x, y in pts.tolist()]
+
+
+def _as_dmatches(matches, n_left: int, n_right: int) -> list:
+    """A list of ``cv2.DMatch`` (the given ones, or made from index pairs), checked by
+    :func:`as_index_pairs`."""
+    pairs = as_index_pairs(matches, n_left, n_right)
+    if _is_sequence_of(matches, cv2.DMatch):
+        return list(matches)
+    return [cv2.DMatch(int(q), int(t), 0.0) for q, t in pairs.tolist()]
+
+
+def _flags(values, name: str, n: int) -> np.ndarray:
+    """``values`` as an ``(n,)`` bool array, one flag per match."""
+    values = np.asarray(values)
+    if values.dtype != np.bool_:
+        raise InvalidTypeError(f"`{name}` must be a bool array, got dtype {values.dtype}")
+    if values.shape != (n,):
+        raise InvalidArgumentError(
+            f"`{name}` must have shape ({n},), one flag per match, got {values.shape}"
+        )
+    return values
+
+
+# --------------------------------------------------------------------------------------
+# Drawing
+# --------------------------------------------------------------------------------------
+
+
+def draw_matches(left, right, kps_l, kps_r, matches, correct=None, *, known=None,
+                 draw_single_points: bool = False) -> np.ndarray:
+    """Draw matches side by side with ``cv2.drawMatches``.
+
+    Parameters
+    ----------
+    left, right : (H, W) or (H, W, 3|4) ndarray
+        The two images (grey or BGR(A); non-8-bit images are stretched for display).
+    kps_l, kps_r : sequence of cv2.KeyPoint or (N, 2) float32 ndarray
+        Keypoints of each image, (x, y).
+    matches : sequence of cv2.DMatch or (M, 2) int ndarray
+        ``queryIdx`` indexes ``kps_l``, ``trainIdx`` indexes ``kps_r``.
+    correct : (M,) bool ndarray, optional
+        When given, correct matches are drawn green and wrong ones red (on top); else
+        OpenCV's default random colours.
+    known : (M,) bool ndarray, optional
+        With ``correct``: matches whose correctness is unknown (False here, e.g. no ground
+        truth) are drawn grey.
+    draw_single_points : bool
+        Also draw the keypoints that have no match.
+
+    Returns
+    -------
+    (max(Hl, Hr), Wl + Wr, 3) uint8 ndarray
+        BGR picture.
+
+    Raises
+    ------
+    InvalidArgumentError, InvalidTypeError
+        An image, the keypoints, the matches or the flags are not of the kinds above, or
+        a match refers to a keypoint that does not exist.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.zeros((40, 50), np.uint8)
+    >>> pts = np.float32([[10, 10], [30, 20]])
+    >>> draw_matches(img, img, pts, pts, np.array([[0, 0], [1, 1]]), np.array([True, False])).shape
+    (40, 100, 3)
+    """
+    img_l, img_r = as_display_image(left, "left"), as_display_image(right, "right")
+    kl, kr = _as_keypoints(kps_l, "kps_l"), _as_keypoints(kps_r, "kps_r")
+    dm = _as_dmatches(matches, len(kl), len(kr))
+    single = 0 if draw_single_points else cv2.DrawMatchesFlags_NOT_DRAW_SINGLE_POINTS
+    if correct is None:
+        return cv2.drawMatches(img_l, kl, img_r, kr, dm, None, flags=single)
+    correct = _flags(correct, "correct", len(dm))
+    known = np.ones(len(dm), bool) if known is None else _flags(known, "known", len(dm))
+    # unknown first, wrong last: the red lines stay visible on top
+    groups = [(GREY, ~known), (GREEN, known & correct), (RED, known & ~correct)]
+    out = None
+    for colour, keep in groups:
+        chosen = [m for m, k in zip(dm, keep.tolist()) if k]
+        if out is None:
+            out = cv2.drawMatches(img_l, kl, img_r, kr, chosen, None, matchColor=colour,
+                                  singlePointColor=(255, 160, 0), flags=single)
+        else:
+            out = cv2.drawMatches(img_l, kl, img_r, kr, chosen, out, matchColor=colour,
+                                  flags=cv2.DrawMatchesFlags_DRAW_OVER_OUTIMG
+                                  | cv2.DrawMatchesFlags_NOT_DRAW_SINGLE_POINTS)
+    return out
+
+
+def draw_disparity(left, points, disparities, max_disparity=None, *, radius: int = 2,
+                   min_disparity: float = 0.0) -> np.ndarray:
+    """Draw sparse disparities as coloured dots (``COLORMAP_TURBO``) over the grey left image.
+
+    Parameters
+    ----------
+    left : (H, W) or (H, W, 3|4) ndarray
+        The left image; it is shown in grey.
+    points : (N, 2) float32 ndarray or sequence of cv2.KeyPoint
+        Left points, (x, y).
+    disparities : (N,) ndarray
+        Their disparities in pixels, finite.
+    max_disparity : float, optional
+        Disparity drawn red (the top of the colour map); default: the largest given.
+        ``min_disparity`` (default 0) is drawn dark blue; values outside are clipped.
+    radius : int
+        Dot radius in pixels.
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        BGR picture; the grey image alone when there are no points.
+
+    Raises
+    ------
+    InvalidArgumentError
+        Not one finite disparity per point, or ``max_disparity`` is not finite.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> draw_disparity(np.zeros((30, 40), np.uint8), np.float32([[5, 5]]), [3.0]).shape
+    (30, 40, 3)
+    """
+    gray = as_display_image(left, "left")
+    gray = cv2.cvtColor(cv2.cvtColor(gray, cv2.COLOR_BGR2GRAY), cv2.COLOR_GRAY2BGR)
+    pts = as_points(points, "points")
+    disp = np.asarray(disparities, dtype=np.float64).reshape(-1)
+    if disp.shape[0] != pts.shape[0]:
+        raise InvalidArgumentError(
+            f"`disparities` must have one value per point ({pts.shape[0]}), got {disp.shape[0]}"
+        )
+    if not np.isfinite(disp).all():
+        raise InvalidArgumentError("`disparities` contains NaN or infinite values")
+    if len(disp) == 0:
+        return gray
+    lo = float(min_disparity)
+    hi = float(max_disparity) if max_disparity is not None else float(disp.max())
+    if not np.isfinite(hi):
+        raise InvalidArgumentError(f"`max_disparity` must be finite, got {max_disparity}")
+    scale = 255.0 / (hi - lo) if hi > lo else 0.0
+    levels = np.clip((disp - lo) * scale, 0, 255).astype(np.uint8).reshape(-1, 1)
+    colours = cv2.applyColorMap(levels, cv2.COLORMAP_TURBO).reshape(-1, 3).tolist()
+    for (x, y), c in zip(np.rint(pts).astype(int).tolist(), colours):
+        cv2.circle(gray, (x, y), int(radius), tuple(int(v) for v in c), -1, cv2.LINE_AA)
+    return gray
+
+
+def draw_keypoints(image, keypoints, color=(0, 255, 0)) -> np.ndarray:
+    """Draw keypoints with ``cv2.drawKeypoints`` (circles of the keypoint size).
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 3|4) ndarray
+        Grey or BGR(A); non-8-bit images are stretched for display.
+    keypoints : sequence of cv2.KeyPoint or (N, 2) float32 ndarray
+        (x, y); array rows are drawn as keypoints of size 5.
+    color : (B, G, R)
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        BGR picture.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> draw_keypoints(np.zeros((30, 40), np.uint16), np.float32([[5, 5]])).shape
+    (30, 40, 3)
+    """
+    img = as_display_image(image, "image")
+    kps = _as_keypoints(keypoints, "keypoints")
+    return cv2.drawKeypoints(img, kps, None, color=color,
+                             flags=cv2.DrawMatchesFlags_DRAW_RICH_KEYPOINTS)
