@@ -7,8 +7,8 @@ script works, figures meaningless).
 Each size runs in a fresh process: blurred uniform noise (a worst case for the number of
 keypoints), a warm-up on a 64 x 64 image, then ``detectAndCompute`` with default parameters
 (``max_pixels`` raised where needed), and ``match_stereo`` on a 2000 x 2000 pair (the
-noise and itself shifted by 6 px, ``max_disparity=16``). Extra peak memory = ``ru_maxrss`` after the call minus
-``ru_maxrss`` before it.
+noise and itself shifted by 6 px, ``max_disparity=16``). Extra peak memory = ``ru_maxrss``
+after the call minus ``ru_maxrss`` before it.
 """
 
 from __future__ import annotations

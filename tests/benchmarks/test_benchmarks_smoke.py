@@ -176,7 +176,7 @@ def test_scale_smoke_has_the_readme_columns(run_all_page):
     out = _sections(run_all_page)["scale.py"]
     assert_lines(
         out,
-        rf"SIFT detectAndCompute on both images: \d+ ms, \d+ keypoints per image, peak \d+ MB",
+        r"SIFT detectAndCompute on both images: \d+ ms, \d+ keypoints per image, peak \d+ MB",
         r"\| keypoints / image \| matches \| neurons \| interactions \| total ms \| match ms \| "
         r"peak MB \| hopmatch / SIFT \|",
         table_row(*[NUM] * 8),
