@@ -1,13 +1,67 @@
-"""Shared helpers of the benchmarks: timing, the motorcycle pair, machine description."""
+"""Shared helpers of the benchmarks: timing, the motorcycle pair, machine description, and
+the ``--smoke`` option every benchmark script takes.
+
+``--smoke`` runs a script on a tiny input in a few seconds (a centre crop of motorcycle,
+one timing round, a few sizes or scenes): it checks that the script still runs and prints
+the tables the documentation quotes (``tests/benchmarks/test_benchmarks_smoke.py``); its
+figures mean nothing. Without it every script does exactly its full run.
+"""
 
 from __future__ import annotations
 
+import argparse
+import dataclasses
 import os
 import platform
 import time
 
 import cv2
 import numpy as np
+
+#: Help text of the ``--smoke`` option.
+SMOKE_HELP = ("run on a tiny input in a few seconds, to check that the script works and "
+              "prints its tables (the figures then mean nothing)")
+#: Width and height of the centre crop of motorcycle that ``--smoke`` runs use.
+SMOKE_SIZE = (240, 160)
+#: The scenes a ``--smoke`` run keeps of a scene list (the built-in one and a small one).
+SMOKE_SCENES = ("motorcycle", "middlebury/tsukuba")
+#: How many pairs of a pair list (chessboards) a ``--smoke`` run keeps.
+SMOKE_PAIRS = 2
+
+
+def add_smoke_option(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """Add ``--smoke`` (``args.smoke``, default False) to ``parser`` and return it."""
+    parser.add_argument("--smoke", action="store_true", help=SMOKE_HELP)
+    return parser
+
+
+def smoke_crop(image: np.ndarray, size: tuple[int, int] = SMOKE_SIZE) -> np.ndarray:
+    """The centre ``size = (width, height)`` crop of ``image`` (a contiguous copy).
+
+    The same crop of both images of a rectified pair and of its disparity map is again a
+    rectified pair with valid ground truth (a crop shifts both images alike)."""
+    w, h = size
+    y0 = max(0, (image.shape[0] - h) // 2)
+    x0 = max(0, (image.shape[1] - w) // 2)
+    return np.ascontiguousarray(image[y0:y0 + h, x0:x0 + w])
+
+
+def smoke_scene(scene):
+    """``scene`` (a :class:`hopmatch.datasets.StereoScene`) with its images and every
+    per-pixel map cropped by :func:`smoke_crop`; name and metadata unchanged."""
+    shape = scene.left.shape[:2]
+    maps = {f.name: smoke_crop(getattr(scene, f.name)) for f in dataclasses.fields(scene)
+            if isinstance(getattr(scene, f.name), np.ndarray)
+            and getattr(scene, f.name).shape[:2] == shape}
+    return dataclasses.replace(scene, **maps)
+
+
+def smoke_scenes(names) -> list:
+    """The names of :data:`SMOKE_SCENES` among ``names``, in their order (the first name
+    when none of them is there)."""
+    names = list(names)
+    kept = [n for n in names if n in SMOKE_SCENES]
+    return kept or names[:1]
 
 
 def single_thread() -> None:
@@ -51,10 +105,14 @@ def best_times_interleaved(fns: dict, repeat: int = 7, warmup: int = 1, settle: 
     return best
 
 
-def motorcycle_bgr():
+def motorcycle_bgr(smoke: bool = False):
+    """``(left, right, disparity)`` of motorcycle (BGR images, float32 ground truth);
+    ``smoke``: their :func:`smoke_crop`."""
     from hopmatch.datasets import load_motorcycle
 
     scene = load_motorcycle()
+    if smoke:
+        scene = smoke_scene(scene)
     return scene.left, scene.right, scene.disparity
 
 

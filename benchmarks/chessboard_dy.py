@@ -21,6 +21,9 @@ matched right point:
 
 ``--shift PX`` moves every right image down by PX px after rectification (a rectification
 error), to see that the |dy| figure still measures the rectification.
+
+``--smoke``: the calibration from every pair as above, then only the first two pairs
+matched and classified (a check that the script works; "all pairs" then means those two).
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
-from _common import single_thread  # noqa: E402
+from _common import SMOKE_PAIRS, add_smoke_option, single_thread  # noqa: E402
 
 import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
@@ -69,11 +72,13 @@ def main(argv=None) -> int:
     ap.add_argument("--params", default="{}", help="matcher parameters (JSON object)")
     ap.add_argument("--shift", type=float, default=0.0,
                     help="move the rectified right images down by this many px")
-    args = ap.parse_args(argv)
+    args = add_smoke_option(ap).parse_args(argv)
     single_thread()
     params = json.loads(args.params)
     folder = datasets.shared_data_dir() / "opencv_stereo_calib"
     cal, _, _, used = calib.calibrate(folder)
+    if args.smoke:
+        used = used[:SMOKE_PAIRS]
     counts = {name: np.zeros(len(CLASSES), dtype=int) for name in ("|dy| <= 1", "|dy| > 1")}
     all_dy, pair01 = [], None
     for i in used:

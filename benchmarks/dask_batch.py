@@ -8,6 +8,8 @@ temporary folder) so that every run does the same work; each row starts a fresh
 ``LocalCluster`` of N single-threaded worker processes on 127.0.0.1, runs one untimed
 warm-up batch (worker start, Numba cache load), then times ``hopmatch_dask.run_batch`` on
 all pairs, reading images and writing results included. Cluster start-up is reported apart.
+``--smoke``: 4 pairs of 160x120 on one worker (unless ``--pairs``, ``--workers`` or
+``--size`` is given); a check that the script works, figures meaningless.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import machine  # noqa: E402
+from _common import add_smoke_option, machine  # noqa: E402
 
 import hopmatch_dask  # noqa: E402
 
@@ -62,10 +64,15 @@ def bench(pairs, workers: int, tmp: Path, params: dict) -> tuple[float, float]:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--pairs", type=int, default=48)
-    parser.add_argument("--workers", default="1,2", help="comma-separated worker counts")
-    parser.add_argument("--size", default="640x480", help="image size WxH")
-    args = parser.parse_args(argv)
+    parser.add_argument("--pairs", type=int, default=None, help="number of pairs (default 48)")
+    parser.add_argument("--workers", default=None,
+                        help="comma-separated worker counts (default 1,2)")
+    parser.add_argument("--size", default=None, help="image size WxH (default 640x480)")
+    args = add_smoke_option(parser).parse_args(argv)
+    for name, full, smoke in (("pairs", 48, 4), ("workers", "1,2", "1"),
+                              ("size", "640x480", "160x120")):
+        if getattr(args, name) is None:
+            setattr(args, name, smoke if args.smoke else full)
     size = tuple(int(v) for v in args.size.lower().split("x"))
     counts = [int(v) for v in args.workers.split(",")]
     params = {"max_disparity": 16}

@@ -7,19 +7,26 @@ covers the left and right points, responses, match indices and distances bit for
 Run it before and after a change that should not alter behaviour and diff the two
 outputs (``python benchmarks/fingerprint.py > before.txt``, change, ``... > after.txt``,
 ``diff before.txt after.txt``). ``--scenes`` picks scenes; the default is motorcycle and
-every scene ``hopmatch.datasets.list_scenes()`` finds.
+every scene ``hopmatch.datasets.list_scenes()`` finds; ``--smoke``: motorcycle and, when
+present, Middlebury tsukuba (a check that the script works; its lines are those of the
+full run for these scenes).
 """
 
 from __future__ import annotations
 
 import argparse
 import hashlib
+import sys
+from pathlib import Path
 
 import numpy as np
 
-import hopmatch
-from hopmatch import datasets
-from hopmatch.compare import disparity_range
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import add_smoke_option, smoke_scenes  # noqa: E402
+
+import hopmatch  # noqa: E402
+from hopmatch import datasets  # noqa: E402
+from hopmatch.compare import disparity_range  # noqa: E402
 
 
 def fingerprint(res) -> str:
@@ -35,10 +42,12 @@ def fingerprint(res) -> str:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", nargs="*", default=None)
-    args = ap.parse_args(argv)
+    args = add_smoke_option(ap).parse_args(argv)
     names = args.scenes
     if names is None:
         names = ["motorcycle"] + [s for s in datasets.list_scenes() if s != "motorcycle"]
+        if args.smoke:
+            names = smoke_scenes(names)
     for name in names:
         scene = datasets.load(name)
         for mode, params in (("defaults", {}),

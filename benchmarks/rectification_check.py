@@ -13,10 +13,14 @@ in the band; shifted ones about their shift with almost none in it.
 ``--chessboards`` measures the rectified chessboard pairs of
 ``../shared/data/opencv_stereo_calib`` (calibrated as in ``examples/stereo_calibration.py``)
 instead: low-texture scenes where many look-alikes are wrong.
+
+``--smoke``: motorcycle and, when present, Middlebury tsukuba only (with
+``--chessboards``: the first two pairs); a check that the script works.
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 from pathlib import Path
@@ -29,11 +33,16 @@ from hopmatch import datasets
 from hopmatch.matching.matcher import RECTIFICATION_RATIO, rectification_evidence
 from hopmatch.stereo import rectify
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import SMOKE_PAIRS, add_smoke_option, smoke_scenes  # noqa: E402
 
-def pairs(chessboards: bool):
-    """``(name, left, right)`` of every scene, or of every rectified chessboard pair."""
+
+def pairs(chessboards: bool, smoke: bool = False):
+    """``(name, left, right)`` of every scene, or of every rectified chessboard pair
+    (``smoke``: :func:`_common.smoke_scenes`, or the first two pairs)."""
     if not chessboards:
-        for name in datasets.list_scenes():
+        names = datasets.list_scenes()
+        for name in smoke_scenes(names) if smoke else names:
             scene = datasets.load(name)
             yield name, scene.left, scene.right
         return
@@ -42,19 +51,23 @@ def pairs(chessboards: bool):
 
     folder = datasets.shared_data_dir() / "opencv_stereo_calib"
     cal, _, _, used = calib.calibrate(folder)
-    for i in used:
+    for i in used[:SMOKE_PAIRS] if smoke else used:
         left = cv2.imread(str(folder / f"left{i}.jpg"))
         right = cv2.imread(str(folder / f"right{i}.jpg"))
         left_r, right_r, _ = rectify(left, right, cal, alpha=0.0)
         yield f"chessboard {i}", left_r, right_r
 
 
-def main() -> None:
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--chessboards", action="store_true",
+                        help="the rectified chessboard pairs of ../shared/data instead")
+    args = add_smoke_option(parser).parse_args(argv)
     det = hopmatch.DericheMoravecDetector()
     print(f"Clear look-alike ratio: {RECTIFICATION_RATIO}\n")
     print("| scene | 0 px | 3 px | 8 px | check time ms |")
     print("|---|---:|---:|---:|---:|")
-    for name, left, right_image in pairs("--chessboards" in sys.argv):
+    for name, left, right_image in pairs(args.chessboards, smoke=args.smoke):
         kl, dl = det.detectAndCompute(left)
         pl = cv2.KeyPoint_convert(kl)
         cells, times = [], []

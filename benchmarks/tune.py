@@ -11,6 +11,10 @@ precision >= 0.95 and correct >= SIFT's (motorcycle: precision >= 0.97 and >= 80
 the issue's goals). Example:
 
     python benchmarks/tune.py --grid '{"similarity_gate": [0.45, 0.5], "seed": [0, 1]}'
+
+``--smoke``: motorcycle and, when present, Middlebury tsukuba only (unless ``--scenes``
+names scenes) and the first two parameter combinations of the grid: a check that the
+script works.
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ from pathlib import Path
 import cv2
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import single_thread  # noqa: E402
+from _common import add_smoke_option, single_thread, smoke_scenes  # noqa: E402
 
 import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
@@ -44,9 +48,11 @@ def main(argv=None) -> int:
     ap.add_argument("--detector", default="{}", help="detector parameters (JSON object)")
     ap.add_argument("--grid", default="{}", help="matcher parameter grid (JSON object)")
     ap.add_argument("--scenes", nargs="*", help="scene names (default: all available)")
-    args = ap.parse_args(argv)
+    args = add_smoke_option(ap).parse_args(argv)
     single_thread()
     names = args.scenes or datasets.list_scenes()
+    if args.smoke and not args.scenes:
+        names = smoke_scenes(names)
     scenes = {n: datasets.load(n) for n in names}
     det = hopmatch.DericheMoravecDetector(**json.loads(args.detector))
     feats, sift = {}, {}
@@ -59,7 +65,10 @@ def main(argv=None) -> int:
     print("SIFT + ratio + band, correct@1px: "
           + ", ".join(f"{n}: {c}" for n, c in sift.items()))
     grid = json.loads(args.grid)
-    for values in itertools.product(*grid.values()):
+    combinations = itertools.product(*grid.values())
+    if args.smoke:
+        combinations = itertools.islice(combinations, 2)
+    for values in combinations:
         params = dict(zip(grid, values))
         cells, passed, worst = [], 0, 1.0
         for n, (pl, dl, pr, dr, size) in feats.items():

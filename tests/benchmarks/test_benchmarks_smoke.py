@@ -1,0 +1,307 @@
+"""Smoke runs of every ``benchmarks/`` script, so that the figures the docs quote cannot
+silently rot.
+
+Each script runs with ``--smoke`` (tiny inputs: seconds, not minutes) in a subprocess from
+the repository root. A test fails when the script exits with an error or when its output
+lacks a line or column the README or the docs quote from it (a crash, a renamed column, a
+changed row label).
+
+- The four scripts behind ``docs/performance.md`` (``end_to_end.py --profile``,
+  ``detector.py``, ``scale.py``, ``first_call.py``) run through ``run_all.py --smoke``,
+  which runs each of them with ``--smoke`` and prints the page: each section must have
+  every line of the same section of ``docs/performance.md`` with the numbers masked
+  (headings, table headers, row labels, the goals line), except the machine line and the
+  profile's function rows, and ``docs/performance.md`` must be left as it was.
+- The other scripts: the lines and table columns that docs/robustness.md,
+  docs/parameters.md, docs/pipelines.md, docs/cluster.md and docs/results.md quote.
+- ``chessboard_dy.py`` and ``rectification_check.py --chessboards`` need ``../shared/data``
+  and skip without it; the scripts whose scene list grows with it (``tune.py``,
+  ``rectification_check.py``, ``fingerprint.py``) run on motorcycle alone then.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import SHARED_DATA
+
+ROOT = Path(__file__).resolve().parents[2]
+BENCHMARKS = ROOT / "benchmarks"
+PERFORMANCE_MD = ROOT / "docs" / "performance.md"
+#: Seconds a smoke run may take (the first one in a fresh environment compiles every Numba
+#: kernel: about 30 s on a loaded 2-core machine).
+TIMEOUT = 300
+#: The scripts of docs/performance.md, as run_all.py runs them.
+PERFORMANCE_SCRIPTS = ["end_to_end.py", "detector.py", "scale.py", "first_call.py"]
+NUMBER = re.compile(r"-?\d+(?:[.,]\d+)*")
+
+
+def run_script(script: str, *args: str, shared: bool = True) -> str:
+    """stdout of ``python benchmarks/SCRIPT --smoke ARGS`` run from the repository root;
+    the test fails, with stderr shown, unless it exits with 0. ``shared``: give it
+    ``../shared/data`` when the tests have it (else it sees none)."""
+    env = dict(os.environ)
+    env.pop("HOPMATCH_SHARED_DATA", None)
+    if shared and SHARED_DATA.is_dir():
+        env["HOPMATCH_SHARED_DATA"] = str(SHARED_DATA)
+    proc = subprocess.run([sys.executable, str(BENCHMARKS / script), "--smoke", *args],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=TIMEOUT)
+    assert proc.returncode == 0, (f"benchmarks/{script} --smoke {' '.join(args)} exited with "
+                                  f"{proc.returncode}:\n{proc.stderr}\n{proc.stdout}")
+    return proc.stdout
+
+
+def assert_lines(out: str, *patterns: str) -> None:
+    """Every regular expression in ``patterns`` matches a whole line of ``out``."""
+    lines = out.splitlines()
+    missing = [p for p in patterns if not any(re.fullmatch(p, line) for line in lines)]
+    assert not missing, "no line matches " + "\n".join(missing) + f"\nin the output:\n{out}"
+
+
+def table_row(*cells: str) -> str:
+    """A regular expression of a Markdown table row of ``cells`` (each a regex)."""
+    return r"\| " + r" \| ".join(f"(?:{c})" for c in cells) + r" \|"
+
+
+NUM = r"-?\d+(?:\.\d+)?"
+
+
+# --------------------------------------------------------------------------------------
+# run_all.py and the four scripts of docs/performance.md
+# --------------------------------------------------------------------------------------
+
+
+def _digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _sections(page: str) -> dict[str, str]:
+    """``{script name: its output}`` of a page written by ``run_all.py``."""
+    parts = re.split(r"^`python benchmarks/(\S+)[^`]*`$", page, flags=re.M)
+    return {name: body for name, body in zip(parts[1::2], parts[2::2])}
+
+
+def _mask(line: str) -> str:
+    """``line`` with every number replaced by ``#`` and a goal's verdict made neutral."""
+    return NUMBER.sub("#", line.replace("NOT met", "met")).rstrip()
+
+
+def _quoted_lines(section: str) -> list[str]:
+    """The lines of a docs/performance.md section that a smoke run must print too, masked:
+    all but the machine (it names this machine) and the profile's function rows (which
+    functions lead depends on the run)."""
+    return [_mask(line) for line in section.splitlines()
+            if line.strip() and line.strip() != "---"
+            and not line.startswith(("Machine:", "| `"))]
+
+
+@pytest.fixture(scope="module")
+def run_all_page():
+    """The page ``run_all.py --smoke`` prints (docs/performance.md checked untouched)."""
+    before = _digest(PERFORMANCE_MD)
+    page = run_script("run_all.py")
+    assert _digest(PERFORMANCE_MD) == before, "run_all.py --smoke changed docs/performance.md"
+    return page
+
+
+def test_run_all_smoke_prints_every_section(run_all_page):
+    assert run_all_page.startswith("# Performance\n")
+    assert "the figures mean nothing" in run_all_page
+    assert list(_sections(run_all_page)) == PERFORMANCE_SCRIPTS
+    assert "`python benchmarks/end_to_end.py --profile --smoke`" in run_all_page
+
+
+def test_run_all_refuses_to_write_smoke_figures_to_the_docs():
+    before = _digest(PERFORMANCE_MD)
+    proc = subprocess.run([sys.executable, str(BENCHMARKS / "run_all.py"), "--smoke", "--out",
+                           str(PERFORMANCE_MD)], cwd=ROOT, capture_output=True, text=True,
+                          timeout=TIMEOUT)
+    assert proc.returncode == 2 and "docs/performance.md" in proc.stderr, proc.stderr
+    assert _digest(PERFORMANCE_MD) == before
+
+
+def test_performance_md_names_the_scripts_run_all_runs():
+    assert list(_sections(PERFORMANCE_MD.read_text(encoding="utf-8"))) == PERFORMANCE_SCRIPTS
+
+
+@pytest.mark.parametrize("script", PERFORMANCE_SCRIPTS)
+def test_smoke_section_has_the_lines_of_performance_md(run_all_page, script):
+    doc = _sections(PERFORMANCE_MD.read_text(encoding="utf-8"))[script]
+    smoke = {_mask(line) for line in _sections(run_all_page)[script].splitlines()}
+    missing = [line for line in _quoted_lines(doc) if line not in smoke]
+    assert not missing, (f"benchmarks/{script} --smoke no longer prints these lines of "
+                         "docs/performance.md (numbers masked); regenerate the page with "
+                         "`python benchmarks/run_all.py` if the change is meant:\n"
+                         + "\n".join(missing)
+                         + f"\n\nsmoke output:\n{_sections(run_all_page)[script]}")
+
+
+def test_end_to_end_smoke_has_the_readme_rows(run_all_page):
+    out = _sections(run_all_page)["end_to_end.py"]
+    assert_lines(
+        out,
+        r"\| pipeline \| ms \| pairs/s \| hopmatch / pipeline \|",
+        table_row(r"hopmatch\.match_stereo \(arrays\)", NUM, NUM, r"1\.00"),
+        table_row(r"ORB\(3000\) \+ BFMatcher ratio 0\.75", NUM, NUM, NUM),
+        table_row(r"SIFT \+ BFMatcher ratio 0\.75", NUM, NUM, NUM),
+        rf"Goals \(issue 3\): <= 1\.0x ORB: {NUM}x \((NOT )?met\); <= 0\.10x SIFT: {NUM}x "
+        rf"\((NOT )?met\); under 33 ms: {NUM} ms \((NOT )?met\)",
+        r"\| function \| own ms per pair \| share \|",
+    )
+
+
+def test_detector_smoke_has_the_readme_rows(run_all_page):
+    out = _sections(run_all_page)["detector.py"]
+    assert_lines(
+        out,
+        r"\| method \| ms \| ratio hopmatch / method \|",
+        table_row(r"hopmatch detect \(KeyPoints\)", NUM, r"1\.00"),
+        table_row(r"of which Deriche gradient \(cv2\.ximgproc\)", NUM, NUM),
+        table_row(r"cv2\.GFTTDetector \(\d+ points\)", NUM, NUM),
+        table_row(r"skimage corner_moravec \+ corner_peaks", NUM, NUM),
+        table_row(r"gradient \(defaults\)", r"\d+", r"\d+", NUM, r"True|False", r"\d+", NUM),
+        table_row("true correspondent", *[NUM] * 7),
+        table_row("chance", *[NUM] * 7),
+    )
+
+
+def test_scale_smoke_has_the_readme_columns(run_all_page):
+    out = _sections(run_all_page)["scale.py"]
+    assert_lines(
+        out,
+        r"SIFT detectAndCompute on both images: \d+ ms, \d+ keypoints per image, peak \d+ MB",
+        r"\| keypoints / image \| matches \| neurons \| interactions \| total ms \| match ms \| "
+        r"peak MB \| hopmatch / SIFT \|",
+        table_row(*[NUM] * 8),
+        rf"Growth of total time with keypoints \(log-log slope; 1\.0 = linear\): {NUM}",
+    )
+    assert len(re.findall(r"^\| \d+ \|", out, re.M)) == 2, out
+
+
+def test_first_call_smoke_has_the_readme_rows(run_all_page):
+    out = _sections(run_all_page)["first_call.py"]
+    assert_lines(
+        out,
+        r"\| cache \| import ms \| warmup\(\) ms \| first match_stereo after warmup ms \|",
+        table_row(r"cold \(compile\)", r"\d+", r"\d+", r"\d+"),
+        table_row(r"warm \(load from disk\)", r"\d+", r"\d+", r"\d+"),
+    )
+
+
+# --------------------------------------------------------------------------------------
+# The other scripts
+# --------------------------------------------------------------------------------------
+
+
+def test_memory_smoke():
+    """docs/robustness.md quotes its columns image .. time and its two kinds of rows."""
+    out = run_script("memory.py")
+    row = (r"\d+ x \d+", r"\d+ MB \(peak RSS \d+ MB\)", r"\d+ B", r"[\d,]+", r"[\d.]+ s")
+    assert_lines(
+        out,
+        r"\| call \| image \| extra peak memory \| per pixel \| keypoints \| time \|",
+        table_row("detectAndCompute", *row),
+        table_row(r"match_stereo \(pair\)", *row),
+    )
+
+
+def test_quality_smoke():
+    """The table of docs/results.md, one row per method of hopmatch.compare."""
+    from hopmatch.compare import METHODS
+
+    out = run_script("quality.py")
+    assert_lines(
+        out,
+        r"\| scene \| method \| matches \| correct@1 \| precision@1 \| recall@1 \| time ms \|",
+        *[table_row("motorcycle", re.escape(m), r"\d+", r"\d+", r"[\d.]+|–", r"[\d.]+|–",
+                    r"\d+") for m in METHODS],
+    )
+
+
+@pytest.mark.parametrize("args", [(), ("--grid", json.dumps({"seed": [0, 1, 2]}))],
+                         ids=["defaults", "grid"])
+def test_tune_smoke(args):
+    """docs/parameters.md quotes SIFT's counts, scenes passing, worst precision and
+    ``scene: correct/precision``."""
+    out = run_script("tune.py", *args)
+    first = "defaults" if not args else re.escape("{'seed': 0}")
+    assert_lines(
+        out,
+        r"SIFT \+ ratio \+ band, correct@1px: motorcycle: \d+(, .+: \d+)*",
+        rf"{first}: \d+/\d+ pass, worst precision [\d.]+ \| motorcycle: \d+/[\d.]+( \(miss\))?"
+        r"(, .+)*",
+    )
+    if args:  # --smoke keeps the first two combinations of the grid
+        assert "{'seed': 1}:" in out and "{'seed': 2}" not in out, out
+    if SHARED_DATA.is_dir():
+        assert "tsukuba: " in out, out
+
+
+def test_rectification_check_smoke():
+    """docs/robustness.md quotes its table: median |dy| (count, share in band) per shift."""
+    out = run_script("rectification_check.py")
+    cell = r"(\d+\.\d\d \(\d+, \d+%\)|n/a)"
+    assert_lines(
+        out,
+        r"Clear look-alike ratio: [\d.]+",
+        r"\| scene \| 0 px \| 3 px \| 8 px \| check time ms \|",
+        table_row("motorcycle", cell, cell, cell, r"\d+"),
+    )
+    if SHARED_DATA.is_dir():
+        assert_lines(out, table_row(r"middlebury/tsukuba", cell, cell, cell, r"\d+"))
+
+
+def test_rectification_check_chessboards_smoke(shared_data):
+    out = run_script("rectification_check.py", "--chessboards")
+    cell = r"(\d+\.\d\d \(\d+, \d+%\)|n/a)"
+    assert_lines(out, r"\| scene \| 0 px \| 3 px \| 8 px \| check time ms \|",
+                 table_row("chessboard 01", cell, cell, cell, r"\d+"))
+
+
+@pytest.mark.parametrize("args", [(), ("--band", "3", "--shift", "2", "--params",
+                                       json.dumps({"vertical_check": "multiple"}))],
+                         ids=["defaults", "options"])
+def test_chessboard_dy_smoke(shared_data, args):
+    """docs/pipelines.md and docs/parameters.md quote its |dy| shares and classification."""
+    out = run_script("chessboard_dy.py", *args)
+    counts = r"off board \d+, other corner \d+, along an edge \d+, same point \d+"
+    assert_lines(
+        out,
+        r"band (4|3) px, parameters \{.*\}, right images shifted (0|2) px",
+        r"all pairs: [\d.]+% of \d+ matches with \|dy\| <= 1 px",
+        r"pair 01: [\d.]+% of \d+ matches with \|dy\| <= 1 px",
+        rf"matches with \|dy\| <= 1 px: \d+: {counts}",
+        rf"matches with \|dy\| > 1 px: \d+: {counts}",
+    )
+
+
+def test_dask_batch_smoke():
+    """docs/cluster.md quotes its workers, pairs/s and speed-up columns."""
+    pytest.importorskip("distributed")
+    pytest.importorskip("hopmatch_dask")
+    out = run_script("dask_batch.py")
+    assert_lines(
+        out,
+        r"# hopmatch batch on a LocalCluster: 4 pairs of 160x120, max_disparity 16",
+        r"\| workers \| cluster start \(s\) \| pairs/s \| speed-up \|",
+        table_row("1", NUM, NUM, r"1\.00x"),
+    )
+
+
+def test_fingerprint_smoke():
+    """Two lines per scene, ``name mode n_left n_right n_matches digest``."""
+    out = run_script("fingerprint.py")
+    scenes = ["motorcycle"] + (["middlebury/tsukuba"] if SHARED_DATA.is_dir() else [])
+    expected = [rf"{re.escape(name)} +{mode} +\d+ +\d+ +\d+  [0-9a-f]{{16}}"
+                for name in scenes for mode in ("defaults", "range")]
+    lines = out.splitlines()
+    assert len(lines) == len(expected), out
+    for pattern, line in zip(expected, lines):
+        assert re.fullmatch(pattern, line), f"{line!r} does not match {pattern!r}"
