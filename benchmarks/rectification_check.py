@@ -4,7 +4,7 @@ pairs whose right image is shifted vertically.
 Run: ``python benchmarks/rectification_check.py`` (prints a Markdown table).
 
 For each scene, the default detector's keypoints and descriptors go through
-``hopmatch.matching.matcher.rectification_evidence`` (the check behind
+``hopmatch.matching.diagnostics.rectification_evidence`` (the check behind
 ``UnrectifiedPairWarning``, docs/robustness.md) with the right image shifted down by 0, 3 and
 8 px. Each cell: median |dy| of the clear look-alikes (number counted, share within the 1 px
 band). Rectified pairs should measure well below the 2 px threshold with most look-alikes
@@ -30,7 +30,7 @@ import numpy as np
 
 import hopmatch
 from hopmatch import datasets
-from hopmatch.matching.matcher import RECTIFICATION_RATIO, rectification_evidence
+from hopmatch.matching.diagnostics import RECTIFICATION_RATIO, rectification_evidence
 from hopmatch.stereo import rectify
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
