@@ -156,7 +156,8 @@ class TestLoadScene:
     def test_missing_image(self, tmp_path):
         folder = make_scene(tmp_path / "k")
         (folder / "right.png").unlink()
-        with pytest.raises(InvalidArgumentError, match="right image file.*right.png.*does not exist"):
+        with pytest.raises(InvalidArgumentError,
+                           match="right image file.*right.png.*does not exist"):
             load_scene(folder)
 
     def test_size_mismatch(self, tmp_path):
