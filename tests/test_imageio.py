@@ -1,0 +1,180 @@
+"""Tests of hopmatch.imageio: read_image on good, missing, empty, corrupt and unreadable
+files, its flags, the kind of each error, and the silencing of what decoders print."""
+
+from __future__ import annotations
+
+import errno
+import os
+import pathlib
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+import cv2
+import numpy as np
+import pytest
+
+from hopmatch.errors import InvalidArgumentError, InvalidTypeError
+from hopmatch.imageio import DEFAULT_FLAGS, KINDS, ImageReadError, os_reason, read_image
+
+
+@pytest.fixture
+def files(tmp_path):
+    """Good and bad image files: grey, BGRA, 16-bit, garbage, truncated, empty, a folder."""
+    rng = np.random.default_rng(3)
+    grey = rng.integers(0, 256, (20, 30), dtype=np.uint8)
+    bgra = rng.integers(0, 256, (20, 30, 4), dtype=np.uint8)
+    deep = rng.integers(0, 65536, (20, 30), dtype=np.uint16)
+    paths = {name: tmp_path / f"{name}.png" for name in
+             ("grey", "bgra", "deep", "garbage", "truncated", "empty")}
+    assert cv2.imwrite(str(paths["grey"]), grey)
+    assert cv2.imwrite(str(paths["bgra"]), bgra)
+    assert cv2.imwrite(str(paths["deep"]), deep)
+    paths["garbage"].write_bytes(b"this is not an image at all")
+    data = paths["grey"].read_bytes()
+    paths["truncated"].write_bytes(data[: len(data) // 2])
+    paths["empty"].write_bytes(b"")
+    paths["folder"] = tmp_path / "a_folder.png"
+    paths["folder"].mkdir()
+    return paths, {"grey": grey, "bgra": bgra, "deep": deep}
+
+
+class TestGoodFiles:
+    def test_default_flags_keep_depth_and_channels(self, files):
+        paths, arrays = files
+        assert DEFAULT_FLAGS == cv2.IMREAD_ANYDEPTH | cv2.IMREAD_ANYCOLOR
+        np.testing.assert_array_equal(read_image(paths["grey"]), arrays["grey"])
+        deep = read_image(paths["deep"])
+        assert deep.dtype == np.uint16
+        np.testing.assert_array_equal(deep, arrays["deep"])
+        # as cv2.imread with the same flags: alpha dropped
+        np.testing.assert_array_equal(read_image(paths["bgra"]),
+                                      cv2.imread(str(paths["bgra"]), DEFAULT_FLAGS))
+
+    @pytest.mark.parametrize("flags", [cv2.IMREAD_UNCHANGED, cv2.IMREAD_ANYCOLOR,
+                                       cv2.IMREAD_GRAYSCALE, cv2.IMREAD_COLOR])
+    @pytest.mark.parametrize("name", ["grey", "bgra", "deep"])
+    def test_flags_as_cv2_imread(self, files, name, flags):
+        paths, _ = files
+        expected = cv2.imread(str(paths[name]), flags)
+        got = read_image(paths[name], flags)
+        assert got.dtype == expected.dtype and got.shape == expected.shape
+        np.testing.assert_array_equal(got, expected)
+
+    def test_unchanged_keeps_alpha(self, files):
+        paths, arrays = files
+        np.testing.assert_array_equal(read_image(paths["bgra"], cv2.IMREAD_UNCHANGED),
+                                      arrays["bgra"])
+
+    def test_str_and_non_ascii_paths(self, files, tmp_path):
+        paths, arrays = files
+        odd = tmp_path / "gauche-é-左.png"
+        odd.write_bytes(paths["grey"].read_bytes())
+        np.testing.assert_array_equal(read_image(str(odd)), arrays["grey"])
+
+    @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
+    def test_named_pipe(self, files, tmp_path):
+        paths, arrays = files
+        fifo = tmp_path / "pipe.png"
+        os.mkfifo(fifo)
+        data = paths["grey"].read_bytes()
+
+        def feed():
+            with open(fifo, "wb") as fh:
+                fh.write(data)
+
+        writer = threading.Thread(target=feed)
+        writer.start()
+        try:
+            np.testing.assert_array_equal(read_image(fifo), arrays["grey"])
+        finally:
+            writer.join(timeout=10)
+
+
+BAD = [  # (key of the file, kind, words of the message)
+    ("missing", "missing", "no such file"),
+    ("folder", "folder", "is a folder, not an image file"),
+    ("empty", "empty", "is empty (0 bytes), not an image"),
+    ("garbage", "undecodable", "is not an image OpenCV can read"),
+    ("truncated", "undecodable", "is not an image OpenCV can read"),
+]
+
+
+class TestBadFiles:
+    @pytest.mark.parametrize("key, kind, words", BAD, ids=[b[0] for b in BAD])
+    def test_error_names_the_file_and_the_kind(self, files, tmp_path, key, kind, words):
+        paths, _ = files
+        path = paths.get(key, tmp_path / "missing.png")
+        with pytest.raises(ImageReadError) as exc:
+            read_image(path)
+        err = exc.value
+        assert isinstance(err, InvalidArgumentError) and isinstance(err, ValueError)
+        assert err.kind == kind and kind in KINDS
+        assert err.path == str(path) and words in err.problem
+        assert str(err) == f"{path}: {err.problem}"
+
+    def test_unreadable(self, files, monkeypatch):
+        paths, _ = files
+
+        def refuse(self):
+            raise PermissionError(errno.EACCES, "Permission denied", str(self))
+
+        monkeypatch.setattr(pathlib.Path, "read_bytes", refuse)
+        with pytest.raises(ImageReadError, match="cannot read the file: permission denied") as exc:
+            read_image(paths["grey"])
+        assert exc.value.kind == "unreadable"
+
+    def test_decoder_output_goes_into_the_message_not_the_terminal(self, files, capfd):
+        paths, _ = files
+        with pytest.raises(ImageReadError) as exc:
+            read_image(paths["truncated"])
+        out, err = capfd.readouterr()
+        assert out == "" and err == ""
+        assert exc.value.problem.startswith("is not an image OpenCV can read (corrupt, truncated")
+
+    def test_argument_types(self, files):
+        paths, _ = files
+        with pytest.raises(InvalidTypeError, match="`path`"):
+            read_image(42)
+        with pytest.raises(InvalidTypeError, match="`flags`"):
+            read_image(paths["grey"], flags="unchanged")
+
+    def test_error_without_kind(self):
+        err = ImageReadError("left.png", "no such file")
+        assert err.kind is None and str(err) == "left.png: no such file"
+
+
+class TestFileDescriptor2:
+    def test_restored_after_every_outcome(self, files):
+        paths, _ = files
+        before = os.fstat(2)
+        for key in ("grey", "garbage", "truncated", "empty"):
+            try:
+                read_image(paths[key])
+            except ImageReadError:
+                pass
+        after = os.fstat(2)
+        assert (after.st_dev, after.st_ino) == (before.st_dev, before.st_ino)
+
+    def test_concurrent_reads(self, files):
+        """Threads reading good and corrupt files at once get the right answers, and leave
+        descriptor 2 where it was."""
+        paths, arrays = files
+        before = os.fstat(2)
+
+        def one(i):
+            if i % 2:
+                with pytest.raises(ImageReadError, match="not an image OpenCV can read"):
+                    read_image(paths["truncated"])
+                return True
+            return np.array_equal(read_image(paths["grey"]), arrays["grey"])
+
+        with ThreadPoolExecutor(4) as ex:
+            assert all(ex.map(one, range(200)))
+        after = os.fstat(2)
+        assert (after.st_dev, after.st_ino) == (before.st_dev, before.st_ino)
+
+
+def test_os_reason():
+    assert os_reason(PermissionError(errno.EACCES, "Permission denied")) == "permission denied"
+    assert os_reason(OSError(errno.ENOSPC, "No space")) == "no space left on the device"
+    assert os_reason(OSError(errno.EIO, "Input/output error")) == "Input/output error"
