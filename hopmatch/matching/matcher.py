@@ -25,7 +25,7 @@ from ..errors import (
     PairInfoError,
     UnrectifiedPairWarning,
 )
-from .._kernels import network as _k
+from .._kernels import neighbours as _kn
 from .network import (
     NetworkResult,
     candidate_pairs,
@@ -116,8 +116,8 @@ def neighbour_pairs_bound(points: np.ndarray, half_w: float, half_h: float) -> i
     if n < 2:
         return 0
     cw, ch = _cell_size(half_w, half_h)
-    dense = _k.grid_neighbour_bound(np.ascontiguousarray(points, dtype=np.float32), cw, ch,
-                                    8 * n + 1024)
+    dense = _kn.grid_neighbour_bound(np.ascontiguousarray(points, dtype=np.float32), cw, ch,
+                                     8 * n + 1024)
     return int(dense) if dense >= 0 else sparse_neighbour_pairs_bound(points, half_w, half_h)
 
 

@@ -6,7 +6,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._kernels import candidates as _kc
+from .._kernels import interactions as _ki
+from .._kernels import neighbours as _kn
 from .._kernels import network as _k
+from .._kernels import similarity as _ks
 from ..errors import BudgetExceededError
 from .disambiguate import disambiguate, vertically_consistent
 
@@ -66,7 +70,7 @@ def window_contrasts(desc_l: np.ndarray, desc_r: np.ndarray):
     normalises eq. 7 (:func:`similarity_distance`); None for binary (uint8) descriptors."""
     if desc_l.dtype == np.uint8:
         return None
-    return _k.row_mean_abs(desc_l), _k.row_mean_abs(desc_r)
+    return _ks.row_mean_abs(desc_l), _ks.row_mean_abs(desc_r)
 
 
 def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
@@ -85,15 +89,15 @@ def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
     ``contrasts``: :func:`window_contrasts` of the descriptors, if already computed.
     """
     if desc_l.dtype == np.uint8:
-        return _k.hamming_fraction(desc_l, desc_r, ni, nk)
+        return _ks.hamming_fraction(desc_l, desc_r, ni, nk)
     scale_l, scale_r = contrasts if contrasts is not None else window_contrasts(desc_l, desc_r)
-    return _k.normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, _EPS,
-                                    np.inf if gate is None else float(gate))
+    return _ks.normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, _EPS,
+                                     np.inf if gate is None else float(gate))
 
 
 def _row_span_limit(n: int) -> int:
     """Largest row span the candidate search counts rows over for n points (beyond it, it
-    sorts them: ``_k.row_order``)."""
+    sorts them: ``_kc.row_order``)."""
     return 4 * n + 1024
 
 
@@ -101,14 +105,14 @@ def _right_band_index(right):
     """What the rectified candidate search (``band_candidates``) needs of the right points:
     the distinct rows ``floor(y)``, each row's offsets in the order below, the points row by
     row with x increasing (ties: index increasing), and the coordinates in that order
-    (``_k.band_index``)."""
-    return _k.band_index(right, _row_span_limit(len(right)))
+    (``_kc.band_index``)."""
+    return _kc.band_index(right, _row_span_limit(len(right)))
 
 
 def _left_visit_order(left) -> np.ndarray:
     """The order the candidate search visits the left points in: row by row, index order
-    within a row (cache-friendly, ``_k.row_order``)."""
-    return _k.row_order(left, _row_span_limit(len(left)))[0]
+    within a row (cache-friendly, ``_kc.row_order``)."""
+    return _kc.row_order(left, _row_span_limit(len(left)))[0]
 
 
 def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max_neurons,
@@ -122,7 +126,7 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
 
     The pairs are sorted by (i, k); with ``sort=False`` they are only grouped by left point
     (in the order the search visited them): sort what is left after gating with
-    ``_k.group_by_left`` (which can gate them) then ``_k.sort_groups``, which is cheaper.
+    ``_kc.group_by_left`` (which can gate them) then ``_kc.sort_groups``, which is cheaper.
 
     ``contrast_gate=(contrasts, gate)`` (rectified search only; ``contrasts`` from
     :func:`window_contrasts`) leaves out the pairs :func:`similarity_distance` would put past
@@ -137,12 +141,12 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
         else:
             (scale_l, scale_r), gate = contrast_gate
             scale_r = scale_r[index[2]]
-        ni, nk, n = _k.band_candidates(left, _left_visit_order(left), *index, *band, budget,
-                                       scale_l, np.ascontiguousarray(scale_r, np.float64),
-                                       float(gate), _EPS)
+        ni, nk, n = _kc.band_candidates(left, _left_visit_order(left), *index, *band, budget,
+                                        scale_l, np.ascontiguousarray(scale_r, np.float64),
+                                        float(gate), _EPS)
     else:
         order = np.argsort(right[:, 0], kind="stable")
-        ni, nk, n = _k.epipolar_candidates(
+        ni, nk, n = _kc.epipolar_candidates(
             left, right, order, np.ascontiguousarray(right[order, 0]),
             np.ascontiguousarray(fundamental, dtype=np.float64), *band, budget)
     if n > max_neurons:
@@ -152,8 +156,8 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
             "max_vertical, use fewer keypoints, or raise max_neurons"
         )
     if sort:
-        ni, nk, _ = _k.group_by_left(ni, nk, np.empty(len(ni)), len(left), False, 0.0)
-        _k.sort_groups(ni, nk, np.empty(len(ni)))
+        ni, nk, _ = _kc.group_by_left(ni, nk, np.empty(len(ni)), len(left), False, 0.0)
+        _kc.sort_groups(ni, nk, np.empty(len(ni)))
     return ni, nk
 
 
@@ -193,7 +197,7 @@ def shift_minimal(desc_l: np.ndarray, desc_r: np.ndarray, qi: np.ndarray,
     one-pixel shift is a localisation near-miss (the right keypoint is off by >= 1 px) and
     is rejected. Descriptors that are not windows pass unchanged: windows (as
     ``gradient_windows`` makes them) are float rows of square length with zero mean, SIFT,
-    KAZE... rows are not (``_k.zero_mean`` on the matched rows, :data:`WINDOW_MEAN_TOL`).
+    KAZE... rows are not (``_ks.zero_mean`` on the matched rows, :data:`WINDOW_MEAN_TOL`).
     """
     qi = np.ascontiguousarray(qi, dtype=np.int64)
     ti = np.ascontiguousarray(ti, dtype=np.int64)
@@ -201,7 +205,7 @@ def shift_minimal(desc_l: np.ndarray, desc_r: np.ndarray, qi: np.ndarray,
     if len(qi) == 0 or not (_window_shaped(desc_l) and _window_shaped(desc_r)):
         return keep
     s = int(round(np.sqrt(desc_l.shape[1])))
-    shift_keep, windows = _k.shift_minimal_windows(desc_l, desc_r, qi, ti, s, *WINDOW_MEAN_TOL)
+    shift_keep, windows = _ks.shift_minimal_windows(desc_l, desc_r, qi, ti, s, *WINDOW_MEAN_TOL)
     return shift_keep if windows else keep
 
 
@@ -209,17 +213,17 @@ def neighbours_with_neurons(left, start, width, height):
     """CSR neighbour lists (SPEC section 4's ``width x height`` window) among the left points
     that have neurons; points without neurons neither have nor are neighbours, since no
     interaction can involve them."""
-    return _k.neighbour_lists_among(left, start, np.float32(width / 2), np.float32(height / 2))
+    return _kn.neighbour_lists_among(left, start, np.float32(width / 2), np.float32(height / 2))
 
 
 def interaction_capacity(ni, nk, start, nb_off, nb_idx, max_interactions: int) -> int:
-    """Room to allocate for the interactions: the cheap :func:`_k.interaction_bound` when it
+    """Room to allocate for the interactions: the cheap :func:`_ki.interaction_bound` when it
     is within ``max_interactions``, else the exact count, which must be within it
     (:class:`BudgetExceededError` otherwise, before anything of that size is allocated)."""
-    bound = _k.interaction_bound(start, nb_off, nb_idx)
+    bound = _ki.interaction_bound(start, nb_off, nb_idx)
     if bound <= max_interactions:
         return bound
-    n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
+    n_inter = _ki.count_interactions(ni, nk, start, nb_off, nb_idx)
     if n_inter > max_interactions:
         raise BudgetExceededError(
             f"the network would have {n_inter} interactions, more than max_interactions="
@@ -256,9 +260,9 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
         ni, nk = ni[keep], nk[keep]
     sim = (similarity_distance(desc_l, desc_r, ni, nk, gate, contrasts) if len(ni)
            else np.zeros(0))
-    ni, nk, sim = _k.group_by_left(ni, nk, sim, nl, gate is not None,
-                                   0.0 if gate is None else float(gate))
-    _k.sort_groups(ni, nk, sim)
+    ni, nk, sim = _kc.group_by_left(ni, nk, sim, nl, gate is not None,
+                                    0.0 if gate is None else float(gate))
+    _kc.sort_groups(ni, nk, sim)
     if p["max_candidates"] and len(ni):
         order = np.lexsort((sim, ni))
         rank = np.empty(len(ni), dtype=np.int64)
@@ -272,8 +276,8 @@ def run_hopfield_network(left, right, desc_l, desc_r, p: dict, *, mask=None,
                                              p["neighbour_height"])
     capacity = interaction_capacity(ni, nk, start, nb_off, nb_idx, p["max_interactions"])
     weighted = p["similarity_weight"] * sim
-    off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, weighted,
-                                       p["theta"], p["slope"], capacity)
+    off, idx, w = _ki.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, weighted,
+                                        p["theta"], p["slope"], capacity)
     n_inter = off[-1]
     v = np.zeros(len(ni), dtype=np.uint8)
     biases = ([p["initial_bias"]] if p["initial_bias"] is not None else []) + [p["input_bias"]]
