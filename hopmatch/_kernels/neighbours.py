@@ -1,6 +1,7 @@
 """Kernels of SPEC section 4's neighbourhood: for each left point i, the left points j within
 its ``width x height`` window (a neuron (i, k) interacts only with the neurons (j, l) of
-these j), as CSR lists found on a grid of cells.
+these j), as CSR lists found on a grid of cells (:func:`cell_size`, the cell rule's one
+home).
 """
 
 from __future__ import annotations
@@ -11,13 +12,29 @@ from .._config import jit
 from .arrays import grown
 
 
+@jit(exact=True)
+def cell_size(half_w, half_h):
+    """The grid cell ``(cw, ch)`` (float64) for neighbours within ``half_w x half_h``: a hair
+    larger than the half-window, ``max(half * (1 + 1e-6), 1e-3)`` on each axis, so that a
+    neighbour (``|dx| <= half_w`` in float32, as the points are stored) is never beyond the
+    3 x 3 cells around a point whatever the rounding; at least 1e-3 px, so a zero window
+    still gives a finite grid.
+
+    The one rule of :func:`neighbour_lists` and of the neighbour-pair bound counted on it
+    (:func:`grid_neighbour_bound`); callable from Python with the same result for the same
+    float64 half-window (compiled without fastmath).
+    """
+    return (max(np.float64(half_w) * (1.0 + 1e-6), 1e-3),
+            max(np.float64(half_h) * (1.0 + 1e-6), 1e-3))
+
+
 @jit
 def neighbour_lists(points, half_w, half_h):
     """CSR lists of the other points j with ``|xj - xi| <= half_w`` and ``|yj - yi| <= half_h``
     (differences in float32, as the points are stored).
 
-    Points are bucketed in a grid of cells a hair larger than ``half_w x half_h`` (enlarged
-    until there are at most ~4 cells per point), so every neighbour lies in the 3 x 3 cells
+    Points are bucketed in a grid of cells of :func:`cell_size` (enlarged by doubling until
+    there are at most ``4 N + 64`` cells), so every neighbour lies in the 3 x 3 cells
     around a point and the cost grows with the number of neighbours, not with N squared.
     Returns ``(offsets, indices)``; each list is sorted by index.
 
@@ -34,8 +51,7 @@ def neighbour_lists(points, half_w, half_h):
     ymin = np.float64(points[:, 1].min())
     span_x = np.float64(points[:, 0].max()) - xmin
     span_y = np.float64(points[:, 1].max()) - ymin
-    cw = max(np.float64(half_w) * (1.0 + 1e-6), 1e-3)
-    ch = max(np.float64(half_h) * (1.0 + 1e-6), 1e-3)
+    cw, ch = cell_size(half_w, half_h)
     ncx = int(span_x / cw) + 1
     ncy = int(span_y / ch) + 1
     while ncx * ncy > 4 * n + 64:
@@ -139,8 +155,9 @@ def transposed_lists(offsets, indices, n_out):
 
 @jit
 def grid_neighbour_bound(points, cw, ch, max_cells):
-    """An upper bound on the ordered neighbour pairs of ``points``: every neighbour of a
-    point lies in the 3 x 3 cells of ``cw x ch`` around its own, so the bound is
+    """An upper bound on the ordered neighbour pairs of ``points``: with cells ``cw x ch`` of
+    :func:`cell_size`, every neighbour of a point lies in the 3 x 3 cells around its own,
+    so the bound is
     ``sum_points (points in those cells) - N``. Counted on a dense grid of cells; returns -1
     when that grid would have more than ``max_cells`` cells (the caller counts sparsely)."""
     n = points.shape[0]

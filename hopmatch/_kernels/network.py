@@ -37,10 +37,26 @@ def shuffle(perm, state):
     return state
 
 
+@jit(inline=True)
+def local_field(coupling, v, row_count, col_count, unique_w, bias):
+    """Eq. 12's bracket for one neuron (i, k) in state ``v``: ``u = sum_(j,l) T_ik,jl V_jl +
+    I`` with ``T = C - w (delta_ij + delta_kl)`` and ``T_ik,ik = 0``, that is ``coupling -
+    unique_w (row_count - v + col_count - v) + bias``.
+
+    ``coupling`` is ``sum_(j,l) C_ik,jl V_jl`` over the neuron's stored interactions,
+    ``row_count`` and ``col_count`` the active neurons of left point i and of right point k
+    (its own state among them: ``- v`` leaves it out). The one expression of the field,
+    for :func:`local_fields` and the dynamics of :func:`run_network` alike; inlined, so
+    each rounds it as when it held its own copy.
+    """
+    return coupling - unique_w * (row_count - v + col_count - v) + bias
+
+
 @jit
 def local_fields(v, ni, nk, off, idx, w, row, col, unique_w, bias):
-    """Eq. 12's bracket for every neuron: ``u = sum_(j,l) T_ik,jl V_jl + I`` with
-    ``T = C - w (delta_ij + delta_kl)`` and ``T_ik,ik = 0``."""
+    """Eq. 12's bracket for every neuron (:func:`local_field`), the couplings summed in
+    float64 over the CSR interactions ``(off, idx, w)``; ``row``/``col`` the active
+    neurons of each left/right point in the state ``v``."""
     n = ni.shape[0]
     u = np.empty(n, dtype=np.float64)
     for p in range(n):
@@ -48,7 +64,7 @@ def local_fields(v, ni, nk, off, idx, w, row, col, unique_w, bias):
         for e in range(off[p], off[p + 1]):
             if v[idx[e]]:
                 s += np.float64(w[e])
-        u[p] = s - unique_w * (row[ni[p]] - v[p] + col[nk[p]] - v[p]) + bias
+        u[p] = local_field(s, v[p], row[ni[p]], col[nk[p]], unique_w, bias)
     return u
 
 
@@ -140,7 +156,7 @@ def run_network(v0, ni, nk, start, off, idx, w, n_left, n_right, unique_w, bias,
             if not clean[i]:
                 for p in range(start[i], start[i + 1]):
                     k = nk[p]
-                    u = field[p] - unique_w * (row[i] - v[p] + col[k] - v[p]) + bias
+                    u = local_field(field[p], v[p], row[i], col[k], unique_w, bias)
                     new = v[p]
                     if u > 0.0:
                         new = 1

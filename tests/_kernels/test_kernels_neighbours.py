@@ -78,3 +78,33 @@ class TestNeighbours:
         dy = np.abs(pts[:, None, 1] - pts[None, :, 1]) <= np.float32(half_h)
         assert (dx & dy).sum() - n <= dense
         assert _k.grid_neighbour_bound(pts, half_w, half_h, 0) == -1  # grid refused
+
+
+class TestCellSize:
+    """``cell_size``: the one rule for the grid of the neighbour lists and of the neighbour
+    bound."""
+
+    @pytest.mark.parametrize("half", [0.0, 1e-9, 5e-4, 1e-3, 0.05, 3.3, 10.0, 20.0, 1e6])
+    def test_is_the_half_window_a_hair_larger_and_at_least_1e_3(self, half):
+        cw, ch = _k.cell_size(half, 2.0 * half)
+        assert (cw, ch) == (max(half * (1.0 + 1e-6), 1e-3), max(2.0 * half * (1.0 + 1e-6), 1e-3))
+        assert cw >= half and cw >= 1e-3 and isinstance(cw, float)
+        # the float32 half-window the kernels receive: the same rule on its float64 value
+        h32 = np.float32(half)
+        assert _k.cell_size(h32, h32) == _k.cell_size(float(h32), float(h32))
+        assert _k.cell_size(h32, h32)[0] >= float(h32)
+
+    @pytest.mark.parametrize("seed", range(4))
+    def test_grid_bound_on_those_cells_bounds_the_neighbour_lists(self, seed):
+        """On cells of ``cell_size`` of the float32 half-window, the dense-grid bound is at
+        least the number of entries ``neighbour_lists`` stores (points on cell edges and
+        coincident points included)."""
+        rng = np.random.default_rng(seed)
+        n = 200
+        half_w, half_h = np.float32(rng.choice([0.5, 2.0, 7.5])), np.float32(rng.choice([1, 4]))
+        pts = np.round(rng.random((n, 2)) * [40, 30] / half_w) * half_w  # on the cell grid
+        pts = pts.astype(np.float32)
+        pts[: n // 5] = pts[0]
+        off, _ = _k.neighbour_lists(pts, half_w, half_h)
+        bound = _k.grid_neighbour_bound(pts, *_k.cell_size(half_w, half_h), 10**7)
+        assert 0 < off[-1] <= bound

@@ -196,3 +196,34 @@ def test_energy_never_increases(seed, n, input_bias, uniqueness, theta, slope, r
         u = res.fields
         assert not (res.state & (u < -1e-9)).any()
         assert not (~res.state & (u > 1e-9)).any()
+
+
+def test_local_field_is_the_field_of_local_fields_and_of_the_dynamics():
+    """Eq. 12's one expression (``local_field``): ``local_fields`` gives it for every neuron
+    from the summed couplings, and a network the dynamics left at a fixed point has no
+    neuron whose field says otherwise."""
+    p = params(**CONFIGS["paper"])
+    problem = make_problem(2, 25)
+    net = kernel_network(*problem, p)
+    rng = np.random.default_rng(3)
+    v = (rng.random(len(net["ni"])) < 0.4).astype(np.uint8)
+    row, col = counts(net, v, 25, 25)
+    u = _k.local_fields(v, net["ni"], net["nk"], net["off"], net["idx"], net["w"], row, col,
+                        1.0, 2.0)
+    for q in range(len(v)):
+        coupling = 0.0
+        for e in range(net["off"][q], net["off"][q + 1]):
+            if v[net["idx"][e]]:
+                coupling += np.float64(net["w"][e])
+        want = coupling - 1.0 * (row[net["ni"][q]] - v[q] + col[net["nk"][q]] - v[q]) + 2.0
+        assert _k.local_field(coupling, v[q], row[net["ni"][q]], col[net["nk"][q]], 1.0,
+                              2.0) == want
+        assert u[q] == pytest.approx(want, rel=0, abs=1e-12)
+    v, _, _, converged, _ = _k.run_network(
+        np.zeros(len(v), np.uint8), net["ni"], net["nk"], net["start"], net["off"],
+        net["idx"], net["w"], 25, 25, 1.0, 2.0, np.uint64(0), 0, 10**6, False)
+    assert converged and v.any()
+    row, col = counts(net, v, 25, 25)
+    u = _k.local_fields(v, net["ni"], net["nk"], net["off"], net["idx"], net["w"], row, col,
+                        1.0, 2.0)
+    assert not (v.astype(bool) & (u < 0)).any() and not (~v.astype(bool) & (u > 0)).any()
