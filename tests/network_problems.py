@@ -11,6 +11,12 @@ from hopmatch.matching.network import _starts, candidate_pairs, similarity_dista
 from hopmatch.matching.params import MATCHER_PARAMS, PRESETS
 
 
+def python_version(kernel):
+    """The plain-Python function of a kernel (``py_func``; the kernel itself when
+    ``NUMBA_DISABLE_JIT=1`` left it uncompiled)."""
+    return getattr(kernel, "py_func", kernel)
+
+
 DEFAULTS = {param.name: param.default for param in MATCHER_PARAMS}
 
 #: Parameter sets the dense comparison runs: the defaults (two-phase annealing), the

@@ -103,3 +103,14 @@ class TestSparsity:
         assert _k.interaction_bound(net["start"], net["nb_off"], net["nb_idx"]) == bound
         if p["similarity_gate"] is None and not p["max_candidates"]:
             assert (net["n_inter"], bound) == brute_force_interactions(problem[0], problem[1], p)
+
+
+def test_compatibility_equals_reference():
+    """Eq. 5 against ``naive.compatibility``, through the edge ``theta`` and far past it
+    (where the kernel returns the limit -1)."""
+    for theta, slope in ((10.0, 0.5), (34.0, 2.0), (0.5, 4.0)):
+        for x in np.r_[np.linspace(0.0, 3.0 * theta, 61), 1e3, 1e6]:
+            got = _k.compatibility(x, theta, slope)
+            assert -1.0 <= got <= 1.0  # rounds to the limits far from theta
+            assert got == pytest.approx(naive.compatibility(x, theta, slope), rel=0, abs=1e-15)
+        assert _k.compatibility(theta, theta, slope) == 0.0
