@@ -250,10 +250,8 @@ def _band_scan(left, visit, q0, row_values, table, x0, inv, nb, order, rx, ry, d
     so that the caller can grow the arrays and resume at q. Without, it writes while there
     is room and then only counts, to the end (``q = len(visit)``).
 
-    The arrays are arguments, never rebound here: rebinding them in the loop (as growing
-    them in place would) made the whole search about a fifth slower (``band_candidates``
-    in ``python benchmarks/end_to_end.py --profile``: 1.78 ms per pair before, 1.46 after,
-    in the runs that wrote docs/performance.md).
+    The arrays are arguments and never rebound here (growing them is the caller's): a loop
+    that rebinds its arrays compiles to a slower search.
     """
     stride = nb + 1
     cap = ni.shape[0]
