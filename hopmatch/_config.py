@@ -10,6 +10,8 @@
   folder is read-only (a system-wide install) and ``NUMBA_CACHE_DIR`` is unset, caching is
   off rather than failing at import.
 - Every kernel is ``nogil``, so hopmatch objects can run in concurrent threads.
+- A helper whose callers must round as if its body were written in place is compiled
+  ``jit(inline=True)`` (inlined in Numba's IR, before fastmath can reassociate it apart).
 """
 
 from __future__ import annotations
@@ -31,12 +33,19 @@ def _cache_wanted() -> bool:
 CACHE: bool = _cache_wanted()
 
 
-def jit(*signature, exact: bool = False):
-    """Decorate a kernel with hopmatch's Numba policy (``nopython``, ``nogil``, cached)."""
+def jit(*signature, exact: bool = False, inline: bool = False):
+    """Decorate a kernel with hopmatch's Numba policy (``nopython``, ``nogil``, cached).
+
+    ``inline=True`` inlines the kernel into its callers in Numba's IR, before LLVM sees
+    either: the callers' code is then what it would be with the body written in place, so a
+    small helper shared by two loops rounds exactly as the loops did when each held its own
+    copy (compiled apart, fastmath may reassociate the helper's sums another way).
+    """
     return numba.njit(
         *signature,
         cache=CACHE,
         nogil=True,
         fastmath=False if exact else set(FASTMATH),
         error_model="numpy",
+        inline="always" if inline else "never",
     )

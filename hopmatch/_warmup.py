@@ -8,7 +8,7 @@ import numpy as np
 
 
 def warmup() -> float:
-    from ._kernels import network as _k
+    from ._kernels import interactions as _ki
     from .feature.detector import DericheMoravecDetector
     from .matching.budget import neighbour_pairs_bound
     from .matching.network import hopfield_match
@@ -26,7 +26,7 @@ def warmup() -> float:
     neighbour_pairs_bound(pts, 20.0, 10.0)  # only crowded inputs reach it in a match
     # the exact interaction count runs only when the cheap bound is over budget
     no_pairs, no_offsets = np.zeros(0, np.int32), np.zeros(1, np.int64)
-    _k.count_interactions(no_pairs, no_pairs, no_offsets, no_offsets, no_pairs)
+    _ki.count_interactions(no_pairs, no_pairs, no_offsets, no_offsets, no_pairs)
     binary = (rng.random((len(pts), 32)) * 255).astype(np.uint8)
     hopfield_match(pts, pts, binary, binary, max_disparity=4.0)
     return time.perf_counter() - t0

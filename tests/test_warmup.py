@@ -27,18 +27,16 @@ CHECK = textwrap.dedent("""
 
 
 def kernels_called_from_python() -> list[tuple[str, str]]:
-    """Every ``_k.<kernel>(`` call outside ``hopmatch._kernels``, with the kernel module
-    that module imports as ``_k``."""
+    """Every ``<alias>.<kernel>(`` call outside ``hopmatch._kernels``, with the kernel module
+    that module imports as ``<alias>`` (``from .._kernels import candidates as _kc``...)."""
     found = set()
     for path in PACKAGE.rglob("*.py"):
         if "_kernels" in path.parts:
             continue
         text = path.read_text()
-        imported = re.search(r"from \.+_kernels import (\w+) as _k\b", text)
-        if not imported:
-            continue
-        for name in re.findall(r"\b_k\.(\w+)\(", text):
-            found.add((f"hopmatch._kernels.{imported.group(1)}", name))
+        for module, alias in re.findall(r"from \.+_kernels import (\w+) as (\w+)\b", text):
+            for name in re.findall(rf"\b{alias}\.(\w+)\(", text):
+                found.add((f"hopmatch._kernels.{module}", name))
     return sorted(found)
 
 

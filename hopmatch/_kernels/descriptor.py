@@ -24,8 +24,7 @@ def bilinear_windows(g, points, radius):
     - the sum of each mean, a chain of dependent additions in raster order, is run for four
       points at a time, interleaved.
 
-    Points are visited in their given order: visiting them by image row instead (for the
-    cache) scatters the writes of the output rows, and measured no faster.
+    Points are visited in their given order, so the output rows are written in order.
     """
     h, w = g.shape
     n = points.shape[0]

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._kernels import network as _k
+from .._kernels import interactions as _ki
+from .._kernels import neighbours as _kn
 from ..errors import BudgetExceededError
 
 #: ``record_energy`` keeps one float64 per allowed iteration: refuse more than this many
@@ -21,15 +22,10 @@ def neighbour_pairs_bound(points: np.ndarray, half_w: float, half_h: float) -> i
     n = len(points)
     if n < 2:
         return 0
-    cw, ch = cell_size(half_w, half_h)
-    dense = _k.grid_neighbour_bound(np.ascontiguousarray(points, dtype=np.float32), cw, ch,
+    cw, ch = _kn.cell_size(half_w, half_h)
+    dense = _kn.grid_neighbour_bound(np.ascontiguousarray(points, dtype=np.float32), cw, ch,
                                     8 * n + 1024)
     return int(dense) if dense >= 0 else sparse_neighbour_pairs_bound(points, half_w, half_h)
-
-
-def cell_size(half_w: float, half_h: float) -> tuple[float, float]:
-    """The neighbour grid's cell (width, height) for a ``2 half_w x 2 half_h`` window."""
-    return max(float(half_w) * (1.0 + 1e-6), 1e-3), max(float(half_h) * (1.0 + 1e-6), 1e-3)
 
 
 def sparse_neighbour_pairs_bound(points: np.ndarray, half_w: float, half_h: float) -> int:
@@ -38,7 +34,7 @@ def sparse_neighbour_pairs_bound(points: np.ndarray, half_w: float, half_h: floa
     n = len(points)
     if n < 2:
         return 0
-    cw, ch = cell_size(half_w, half_h)
+    cw, ch = _kn.cell_size(half_w, half_h)
     pts = points.astype(np.float64)
     cx = np.floor((pts[:, 0] - pts[:, 0].min()) / cw).astype(np.int64) + 1
     cy = np.floor((pts[:, 1] - pts[:, 1].min()) / ch).astype(np.int64) + 1
@@ -71,13 +67,13 @@ def check_neighbour_budget(points: np.ndarray, config) -> None:
 
 
 def interaction_capacity(ni, nk, start, nb_off, nb_idx, max_interactions: int) -> int:
-    """Room to allocate for the interactions: the cheap :func:`_k.interaction_bound` when it
+    """Room to allocate for the interactions: the cheap :func:`_ki.interaction_bound` when it
     is within ``max_interactions``, else the exact count, which must be within it
     (:class:`BudgetExceededError` otherwise, before anything of that size is allocated)."""
-    bound = _k.interaction_bound(start, nb_off, nb_idx)
+    bound = _ki.interaction_bound(start, nb_off, nb_idx)
     if bound <= max_interactions:
         return bound
-    n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
+    n_inter = _ki.count_interactions(ni, nk, start, nb_off, nb_idx)
     if n_inter > max_interactions:
         raise BudgetExceededError(
             f"the network would have {n_inter} interactions, more than max_interactions="

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._kernels import network as _k
+from .._kernels import candidates as _kc
 from ..errors import BudgetExceededError
 from .similarity import EPS
 
 def row_span_limit(n: int) -> int:
     """Largest row span the candidate search counts rows over for n points (beyond it, it
-    sorts them: ``_k.row_order``)."""
+    sorts them: ``_kc.row_order``)."""
     return 4 * n + 1024
 
 
@@ -18,14 +18,14 @@ def right_band_index(right):
     """What the rectified candidate search (``band_candidates``) needs of the right points:
     the distinct rows ``floor(y)``, each row's offsets in the order below, the points row by
     row with x increasing (ties: index increasing), and the coordinates in that order
-    (``_k.band_index``)."""
-    return _k.band_index(right, row_span_limit(len(right)))
+    (``_kc.band_index``)."""
+    return _kc.band_index(right, row_span_limit(len(right)))
 
 
 def left_visit_order(left) -> np.ndarray:
     """The order the candidate search visits the left points in: row by row, index order
-    within a row (cache-friendly, ``_k.row_order``)."""
-    return _k.row_order(left, row_span_limit(len(left)))[0]
+    within a row (cache-friendly, ``_kc.row_order``)."""
+    return _kc.row_order(left, row_span_limit(len(left)))[0]
 
 
 def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max_neurons,
@@ -39,7 +39,7 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
 
     The pairs are sorted by (i, k); with ``sort=False`` they are only grouped by left point
     (in the order the search visited them): sort what is left after gating with
-    ``_k.group_by_left`` (which can gate them) then ``_k.sort_groups``, which is cheaper.
+    ``_kc.group_by_left`` (which can gate them) then ``_kc.sort_groups``, which is cheaper.
 
     ``contrast_gate=(contrasts, gate)`` (rectified search only; ``contrasts`` from
     :func:`window_contrasts`) leaves out the pairs :func:`similarity_distance` would put past
@@ -54,12 +54,12 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
         else:
             (scale_l, scale_r), gate = contrast_gate
             scale_r = scale_r[index[2]]
-        ni, nk, n = _k.band_candidates(left, left_visit_order(left), *index, *band, budget,
+        ni, nk, n = _kc.band_candidates(left, left_visit_order(left), *index, *band, budget,
                                        scale_l, np.ascontiguousarray(scale_r, np.float64),
                                        float(gate), EPS)
     else:
         order = np.argsort(right[:, 0], kind="stable")
-        ni, nk, n = _k.epipolar_candidates(
+        ni, nk, n = _kc.epipolar_candidates(
             left, right, order, np.ascontiguousarray(right[order, 0]),
             np.ascontiguousarray(fundamental, dtype=np.float64), *band, budget)
     if n > max_neurons:
@@ -69,8 +69,8 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
             "max_vertical, use fewer keypoints, or raise max_neurons"
         )
     if sort:
-        ni, nk, _ = _k.group_by_left(ni, nk, np.empty(len(ni)), len(left), False, 0.0)
-        _k.sort_groups(ni, nk, np.empty(len(ni)))
+        ni, nk, _ = _kc.group_by_left(ni, nk, np.empty(len(ni)), len(left), False, 0.0)
+        _kc.sort_groups(ni, nk, np.empty(len(ni)))
     return ni, nk
 
 

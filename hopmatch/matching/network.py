@@ -14,6 +14,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._kernels import candidates as _kc
+from .._kernels import interactions as _ki
+from .._kernels import neighbours as _kn
 from .._kernels import network as _k
 from .._validate import (
     as_descriptors,
@@ -116,7 +119,7 @@ def neighbours_with_neurons(left, start, width, height):
     """CSR neighbour lists (SPEC section 4's ``width x height`` window) among the left points
     that have neurons; points without neurons neither have nor are neighbours, since no
     interaction can involve them."""
-    return _k.neighbour_lists_among(left, start, np.float32(width / 2), np.float32(height / 2))
+    return _kn.neighbour_lists_among(left, start, np.float32(width / 2), np.float32(height / 2))
 
 
 def _starts(ni: np.ndarray, n_left: int) -> np.ndarray:
@@ -151,9 +154,9 @@ def run_hopfield_network(left, right, desc_l, desc_r, config: MatcherConfig, *, 
         ni, nk = ni[keep], nk[keep]
     sim = (similarity_distance(desc_l, desc_r, ni, nk, gate, contrasts) if len(ni)
            else np.zeros(0))
-    ni, nk, sim = _k.group_by_left(ni, nk, sim, nl, gate is not None,
+    ni, nk, sim = _kc.group_by_left(ni, nk, sim, nl, gate is not None,
                                    0.0 if gate is None else float(gate))
-    _k.sort_groups(ni, nk, sim)
+    _kc.sort_groups(ni, nk, sim)
     if c.max_candidates and len(ni):
         order = np.lexsort((sim, ni))
         rank = np.empty(len(ni), dtype=np.int64)
@@ -167,7 +170,7 @@ def run_hopfield_network(left, right, desc_l, desc_r, config: MatcherConfig, *, 
                                              c.neighbour_height)
     capacity = interaction_capacity(ni, nk, start, nb_off, nb_idx, c.max_interactions)
     weighted = c.similarity_weight * sim
-    off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, weighted,
+    off, idx, w = _ki.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, weighted,
                                        c.theta, c.slope, capacity)
     n_inter = off[-1]
     v = np.zeros(len(ni), dtype=np.uint8)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._kernels import network as _k
+from .._kernels import similarity as _ks
 
 #: Regulariser of eq. 7's normalisation (added to the windows' mean contrast).
 EPS = 1e-6
@@ -15,7 +15,7 @@ def window_contrasts(desc_l: np.ndarray, desc_r: np.ndarray):
     normalises eq. 7 (:func:`similarity_distance`); None for binary (uint8) descriptors."""
     if desc_l.dtype == np.uint8:
         return None
-    return _k.row_mean_abs(desc_l), _k.row_mean_abs(desc_r)
+    return _ks.row_mean_abs(desc_l), _ks.row_mean_abs(desc_r)
 
 
 def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
@@ -34,9 +34,9 @@ def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
     ``contrasts``: :func:`window_contrasts` of the descriptors, if already computed.
     """
     if desc_l.dtype == np.uint8:
-        return _k.hamming_fraction(desc_l, desc_r, ni, nk)
+        return _ks.hamming_fraction(desc_l, desc_r, ni, nk)
     scale_l, scale_r = contrasts if contrasts is not None else window_contrasts(desc_l, desc_r)
-    return _k.normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, EPS,
+    return _ks.normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, EPS,
                                     np.inf if gate is None else float(gate))
 
 
@@ -62,7 +62,7 @@ def shift_minimal(desc_l: np.ndarray, desc_r: np.ndarray, qi: np.ndarray,
     one-pixel shift is a localisation near-miss (the right keypoint is off by >= 1 px) and
     is rejected. Descriptors that are not windows pass unchanged: windows (as
     ``gradient_windows`` makes them) are float rows of square length with zero mean, SIFT,
-    KAZE... rows are not (``_k.zero_mean`` on the matched rows, :data:`WINDOW_MEAN_TOL`).
+    KAZE... rows are not (``_ks.zero_mean`` on the matched rows, :data:`WINDOW_MEAN_TOL`).
     """
     qi = np.ascontiguousarray(qi, dtype=np.int64)
     ti = np.ascontiguousarray(ti, dtype=np.int64)
@@ -70,7 +70,7 @@ def shift_minimal(desc_l: np.ndarray, desc_r: np.ndarray, qi: np.ndarray,
     if len(qi) == 0 or not (_window_shaped(desc_l) and _window_shaped(desc_r)):
         return keep
     s = int(round(np.sqrt(desc_l.shape[1])))
-    shift_keep, windows = _k.shift_minimal_windows(desc_l, desc_r, qi, ti, s, *WINDOW_MEAN_TOL)
+    shift_keep, windows = _ks.shift_minimal_windows(desc_l, desc_r, qi, ti, s, *WINDOW_MEAN_TOL)
     return shift_keep if windows else keep
 
 

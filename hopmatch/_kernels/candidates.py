@@ -1,0 +1,428 @@
+"""Kernels of SPEC section 4's search window: the candidate pairs (i, k), the neurons of the
+network of sections 2-3.
+
+:func:`band_index` orders the right points row by row (rows by :func:`row_order`), x
+increasing within a row, and :func:`row_buckets` adds an x-bucket table per row;
+:func:`band_candidates` then finds the pairs of a rectified band, and
+:func:`epipolar_candidates` those of a band around epipolar lines. Both return the pairs
+grouped by left point; :func:`group_by_left` and :func:`sort_groups` put them in (i, k)
+order. Every array is of the size of the points or of the candidates, never ``Nl x Nr``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._config import jit
+from .arrays import grown, lower_bound, upper_bound
+from .similarity import contrast_admits, similarity_norm
+
+#: Runs longer than this are sorted with NumPy's O(n log n) sorts, shorter ones by insertion
+#: (faster on the short runs that are the rule; crowded inputs make long ones).
+SHORT_RUN = 32
+
+
+@jit
+def point_rows(points):
+    """``floor(y)`` of every (x, y) point as int64, and the smallest and largest of them."""
+    n = points.shape[0]
+    rows = np.empty(n, dtype=np.int64)
+    rmin = np.int64(0)
+    rmax = np.int64(0)
+    for i in range(n):
+        r = np.int64(np.floor(np.float64(points[i, 1])))
+        rows[i] = r
+        if i == 0 or r < rmin:
+            rmin = r
+        if i == 0 or r > rmax:
+            rmax = r
+    return rows, rmin, rmax
+
+
+@jit
+def row_order(points, max_span):
+    """The points ordered by row ``floor(y)``, index order within a row: ``(order, rows)``,
+    ``rows`` each point's row. A counting sort when the rows span at most ``max_span``
+    values (O(N) counts), else one sort of unique int64 keys, the row above the 31-bit index
+    (coordinates are validated to ``|v| <= 2**20``, indices are below 2**31)."""
+    n = points.shape[0]
+    rows, rmin, rmax = point_rows(points)
+    order = np.empty(n, dtype=np.int64)
+    if n == 0:
+        return order, rows
+    span = rmax - rmin + 1
+    if span > max_span:
+        key = np.empty(n, dtype=np.int64)
+        for i in range(n):
+            key[i] = ((rows[i] - rmin) << 31) | i
+        key.sort()
+        for t in range(n):
+            order[t] = key[t] & (2**31 - 1)
+        return order, rows
+    fill = np.zeros(span + 1, dtype=np.int64)
+    for i in range(n):
+        fill[rows[i] - rmin + 1] += 1
+    for r in range(span):
+        fill[r + 1] += fill[r]
+    for i in range(n):
+        order[fill[rows[i] - rmin]] = i
+        fill[rows[i] - rmin] += 1
+    return order, rows
+
+
+@jit
+def band_index(points, max_span):
+    """What :func:`band_candidates` needs of the right points: ``(row_values, row_start,
+    order, rx, ry)`` -- the distinct rows ``floor(y)`` (increasing), each row's offsets
+    in ``order``, the points row by row with x increasing (ties: index increasing), and
+    their coordinates in that order.
+
+    Rows by :func:`row_order`; within a row, one unique int64 key per point, the float32 x
+    made monotonic as an unsigned 32-bit number above the 31-bit index (indices < 2**31),
+    sorted by insertion (short rows) or ``np.sort``.
+    """
+    n = points.shape[0]
+    order, point_row = row_order(points, max_span)
+    key = np.empty(n, dtype=np.int64)
+    rows = np.empty(n, dtype=np.int64)
+    for t in range(n):
+        i = order[t]
+        rows[t] = point_row[i]
+        bits = np.int64(np.float32(points[i, 0]).view(np.int32))
+        if bits < 0:
+            bits = -bits - 2**31 - 1
+        key[t] = ((bits + 2**31) << 31) | i
+    row_values = np.empty(n, dtype=np.int64)
+    row_start = np.empty(n + 1, dtype=np.int64)
+    nrows = 0
+    lo = 0
+    while lo < n:
+        hi = lo + 1
+        while hi < n and rows[hi] == rows[lo]:
+            hi += 1
+        row_values[nrows] = rows[lo]
+        row_start[nrows] = lo
+        nrows += 1
+        if hi - lo > SHORT_RUN:  # distinct keys: any sort will do
+            ordered = np.sort(key[lo:hi])
+            for t in range(hi - lo):
+                key[lo + t] = ordered[t]
+        else:
+            for t in range(lo + 1, hi):
+                kt = key[t]
+                u = t - 1
+                while u >= lo and key[u] > kt:
+                    key[u + 1] = key[u]
+                    u -= 1
+                key[u + 1] = kt
+        lo = hi
+    row_start[nrows] = n
+    rx = np.empty(n, dtype=np.float32)
+    ry = np.empty(n, dtype=np.float32)
+    for t in range(n):
+        i = key[t] & (2**31 - 1)
+        order[t] = i
+        rx[t] = points[i, 0]
+        ry[t] = points[i, 1]
+    return row_values[:nrows].copy(), row_start[:nrows + 1].copy(), order, rx, ry
+
+
+#: Entries the x-bucket table of :func:`row_buckets` may have per right point (plus
+#: ``BUCKET_SLACK``): memory stays linear in the number of points.
+BUCKETS_PER_POINT = 4
+BUCKET_SLACK = 1024
+#: Longest bucket range :func:`band_candidates` scans as it is; longer ones (crowded
+#: buckets: most points in a few of them) are narrowed by binary search first.
+BUCKET_SCAN_MAX = 64
+
+
+@jit(exact=True)
+def _bucket(x, x0, inv, nb):
+    """``floor((x - x0) * inv)`` clamped to ``[0, nb - 1]``, clamped in float64 before the
+    conversion (so any x, however far out, is safe); monotonic in x. Compiled without
+    fastmath, so the table and the searches round it the same way."""
+    f = (x - x0) * inv
+    if f >= nb:
+        return nb - 1
+    if f > 0.0:
+        return np.int64(f)
+    return np.int64(0)
+
+
+@jit
+def row_buckets(row_start, rx, max_entries):
+    """An x-bucket table over rows of points sorted by x within each row, so that a search
+    for an x range needs no binary search: ``(table, x0, inv, nb)``, ``table[r * (nb + 1) +
+    b]`` the first offset t of row r (``row_start[r] <= t <= row_start[r + 1]``) whose
+    bucket ``_bucket(rx[t], x0, inv, nb)`` is at least b (the row's end if none).
+
+    Every point of row r with ``x_lo <= rx <= x_hi`` then lies in ``[table[r, bucket(x_lo)],
+    table[r, bucket(x_hi) + 1])`` (buckets are monotonic in x), a superset by at most the
+    points sharing the two end buckets. The ``nb`` buckets split the x span of all points
+    evenly; ``nb`` is as large as ``max_entries`` allows (at least 1).
+    """
+    nrows = row_start.shape[0] - 1
+    n = rx.shape[0]
+    x0 = 0.0
+    x1 = 0.0
+    for t in range(n):
+        x = np.float64(rx[t])
+        if t == 0 or x < x0:
+            x0 = x
+        if t == 0 or x > x1:
+            x1 = x
+    nb = np.int64(max(1, min(max_entries // max(nrows, 1) - 1, 1 << 24)))
+    inv = nb / (x1 - x0) if x1 > x0 else 0.0
+    stride = nb + 1
+    table = np.empty(nrows * stride, dtype=np.int64)
+    for r in range(nrows):
+        base = r * stride
+        b = 0
+        for t in range(row_start[r], row_start[r + 1]):
+            bt = _bucket(np.float64(rx[t]), x0, inv, nb)
+            while b <= bt:
+                table[base + b] = t
+                b += 1
+        while b < stride:
+            table[base + b] = row_start[r + 1]
+            b += 1
+    return table, x0, inv, nb
+
+
+@jit
+def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dmax, vmax,
+                    max_neurons, scale_l, scale_r_sorted, gate, eps):
+    """The pairs (i, k) with ``dmin <= xl - xr <= dmax`` and ``yl - vmax <= yr <= yl + vmax``
+    (float32 arithmetic, as the points are stored), as ``(ni, nk, n)``: grouped by left point
+    in the order ``visit`` lists them, each group in row order (:func:`group_by_left` and
+    :func:`sort_groups` sort them by (i, k)). Visiting the left points row by row
+    (:func:`row_order`) reads the right points' rows while they are still in cache.
+
+    ``row_values`` are the distinct rows ``floor(y)`` of the right points (increasing),
+    ``order`` the right points row by row with x increasing, ``row_start`` each row's
+    offsets in it, and ``rx, ry`` the right points' coordinates in that order. Only the
+    rows ``floor(yl - vmax) .. floor(yl + vmax)`` are visited, and in each row only the x
+    range of the disparity band (one pixel of slack for rounding), found in the x-bucket
+    table of :func:`row_buckets` without a search and scanned without branches (the exact
+    test keeps the pairs inside); a range longer than ``BUCKET_SCAN_MAX`` points (crowded
+    buckets) is narrowed by binary search first. The cost grows with the number of
+    candidates, not with ``Nl x Nr``, however the points are spread.
+
+    Pairs whose window contrasts alone put them past the similarity ``gate``
+    (:func:`contrast_admits`, the bound :func:`normalised_difference` skips by) are not
+    written; ``scale_r_sorted`` is ``scale_r[order]``. Pass zero scales and ``gate = inf``
+    to keep every pair. ``n`` counts every pair of the band all the same (the
+    ``max_neurons`` budget is on the band).
+
+    The search itself is :func:`_band_scan`; here the output grows by doubling up to
+    ``max_neurons`` entries whenever a left point's pairs would not fit. Past that the
+    pairs are only counted: ``n > max_neurons`` then says so, and ``ni``/``nk`` are empty.
+    """
+    table, x0, inv, nb = row_buckets(row_start, rx,
+                                     BUCKETS_PER_POINT * rx.shape[0] + BUCKET_SLACK)
+    cap = min(max_neurons, 8 * left.shape[0] + 1024)
+    ni = np.empty(cap, dtype=np.int32)
+    nk = np.empty(cap, dtype=np.int32)
+    q = 0  # left points searched (in visit order)
+    p = 0  # pairs written
+    n = 0  # pairs in the band
+    while q < visit.shape[0]:
+        q, p, n = _band_scan(left, visit, q, row_values, table, x0, inv, nb, order, rx, ry,
+                             dmin, dmax, vmax, scale_l, scale_r_sorted, gate, eps, ni, nk,
+                             p, n, cap < max_neurons)
+        if q < visit.shape[0]:  # left point q did not fit: grow, then resume at it
+            cap = min(2 * cap, max_neurons)
+            ni = grown(ni, p, cap)
+            nk = grown(nk, p, cap)
+    if n > max_neurons:
+        return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), n
+    return ni[:p].copy(), nk[:p].copy(), n
+
+
+@jit
+def _band_scan(left, visit, q0, row_values, table, x0, inv, nb, order, rx, ry, dmin, dmax,
+               vmax, scale_l, scale_r_sorted, gate, eps, ni, nk, p, n, may_grow):
+    """The search of :func:`band_candidates` from ``visit[q0]`` on, into ``ni``/``nk``
+    (``p`` pairs written and ``n`` counted so far): returns ``(q, p, n)``.
+
+    With ``may_grow``, it stops at the first left point q whose bucket ranges would not fit
+    in the room left, before writing any of its pairs (``p``, ``n`` as they were before it),
+    so that the caller can grow the arrays and resume at q. Without, it writes while there
+    is room and then only counts, to the end (``q = len(visit)``).
+
+    The arrays are arguments and never rebound here (growing them is the caller's): a loop
+    that rebinds its arrays compiles to a slower search.
+    """
+    stride = nb + 1
+    cap = ni.shape[0]
+    last_lo = np.int64(0)
+    last_hi = np.int64(-1)
+    r_lo = 0
+    r_hi = 0
+    for q in range(q0, visit.shape[0]):
+        i = visit[q]
+        xl = left[i, 0]
+        yl = left[i, 1]
+        sl = scale_l[i]
+        y_lo = yl - vmax
+        y_hi = yl + vmax
+        row_lo = np.int64(np.floor(np.float64(y_lo)))
+        row_hi = np.int64(np.floor(np.float64(y_hi)))
+        if row_lo != last_lo or row_hi != last_hi:  # a new row range (visits go row by row)
+            r_lo = lower_bound(row_values, 0, row_values.shape[0], row_lo)
+            r_hi = upper_bound(row_values, r_lo, row_values.shape[0], row_hi)
+            last_lo = row_lo
+            last_hi = row_hi
+        x_lo = np.float64(xl) - np.float64(dmax) - 1.0
+        x_hi = np.float64(xl) - np.float64(dmin) + 1.0
+        b_lo = _bucket(x_lo, x0, inv, nb)
+        b_hi = _bucket(x_hi, x0, inv, nb) + 1
+        p_before = p
+        n_before = n
+        for r in range(r_lo, r_hi):
+            t0 = table[r * stride + b_lo]
+            t1 = max(table[r * stride + b_hi], t0)
+            if t1 - t0 > BUCKET_SCAN_MAX:
+                t0 = lower_bound(rx, t0, t1, x_lo)
+                t1 = upper_bound(rx, t0, t1, x_hi)
+            if p + (t1 - t0) <= cap:  # room for every pair of the segment: no branches
+                for t in range(t0, t1):
+                    d = xl - rx[t]
+                    inside = (d >= dmin) & (d <= dmax) & (ry[t] >= y_lo) & (ry[t] <= y_hi)
+                    sr = scale_r_sorted[t]
+                    ni[p] = i
+                    nk[p] = order[t]
+                    n += inside
+                    p += inside & contrast_admits(sl, sr, similarity_norm(sl, sr, eps), gate)
+            elif may_grow:
+                return q, p_before, n_before
+            else:  # at the budget: write while there is room, then only count
+                for t in range(t0, t1):
+                    d = xl - rx[t]
+                    if d >= dmin and d <= dmax and ry[t] >= y_lo and ry[t] <= y_hi:
+                        n += 1
+                        sr = scale_r_sorted[t]
+                        if contrast_admits(sl, sr, similarity_norm(sl, sr, eps), gate):
+                            if p < cap:
+                                ni[p] = i
+                                nk[p] = order[t]
+                            p += 1
+    return visit.shape[0], p, n
+
+
+@jit
+def _window_query(ys_sorted, y_lo, y_hi):
+    """[a, b) range of a sorted array with y_lo <= y <= y_hi."""
+    a = np.searchsorted(ys_sorted, y_lo, side="left")
+    b = np.searchsorted(ys_sorted, y_hi, side="right")
+    return a, b
+
+
+@jit
+def epipolar_offset(f, xl, yl, xr, yr):
+    """Signed distance of the right point (xr, yr) to the epipolar line ``F (xl, yl, 1)``."""
+    a = f[0, 0] * xl + f[0, 1] * yl + f[0, 2]
+    b = f[1, 0] * xl + f[1, 1] * yl + f[1, 2]
+    c = f[2, 0] * xl + f[2, 1] * yl + f[2, 2]
+    norm = np.sqrt(a * a + b * b)
+    if norm == 0.0:
+        return np.inf
+    return (a * xr + b * yr + c) / norm
+
+
+@jit
+def epipolar_candidates(left, right, order_x, rx_sorted, f, dmin, dmax, vmax, max_neurons):
+    """The pairs with ``dmin <= xl - xr <= dmax`` and the right point within ``vmax`` of the
+    left point's epipolar line (fundamental matrix ``f``, float64 3 x 3), as ``(ni, nk, n)``
+    grouped by left point i increasing (within a group in x order: :func:`sort_groups` sorts
+    them). ``order_x`` sorts the right points by x, ``rx_sorted`` is their x in that order.
+
+    As :func:`band_candidates`: the output grows up to ``max_neurons`` entries; past that the
+    pairs are only counted, ``n > max_neurons`` says so and ``ni``/``nk`` are empty.
+    """
+    cap = min(max_neurons, 8 * left.shape[0] + 1024)
+    ni = np.empty(cap, dtype=np.int32)
+    nk = np.empty(cap, dtype=np.int32)
+    p = 0
+    for i in range(left.shape[0]):
+        xl = np.float64(left[i, 0])
+        yl = np.float64(left[i, 1])
+        a, b = _window_query(rx_sorted, np.float32(xl - dmax), np.float32(xl - dmin))
+        for t in range(a, b):
+            k = order_x[t]
+            d = left[i, 0] - right[k, 0]
+            if d >= dmin and d <= dmax:
+                if abs(epipolar_offset(f, xl, yl, np.float64(right[k, 0]),
+                                       np.float64(right[k, 1]))) <= vmax:
+                    if p == cap and cap < max_neurons:
+                        cap = min(2 * cap, max_neurons)
+                        ni = grown(ni, p, cap)
+                        nk = grown(nk, p, cap)
+                    if p < cap:
+                        ni[p] = i
+                        nk[p] = k
+                    p += 1
+    if p > max_neurons:
+        return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), p
+    return ni[:p].copy(), nk[:p].copy(), p
+
+
+@jit
+def group_by_left(ni, nk, values, n_left, gated, limit):
+    """Pairs grouped by left point in any order, regrouped by i increasing (a stable
+    counting sort: each group keeps its order). With ``gated``, only the pairs with
+    ``values <= limit`` are kept (NaN is not). Returns new ``(ni, nk, values)``."""
+    n = ni.shape[0]
+    fill = np.zeros(n_left + 1, dtype=np.int64)
+    kept = 0
+    for t in range(n):
+        if not gated or values[t] <= limit:
+            fill[ni[t] + 1] += 1
+            kept += 1
+    for i in range(n_left):
+        fill[i + 1] += fill[i]
+    oi = np.empty(kept, dtype=ni.dtype)
+    ok = np.empty(kept, dtype=nk.dtype)
+    ov = np.empty(kept, dtype=values.dtype)
+    for t in range(n):
+        if gated and not values[t] <= limit:
+            continue
+        w = fill[ni[t]]
+        oi[w] = ni[t]
+        ok[w] = nk[t]
+        ov[w] = values[t]
+        fill[ni[t]] += 1
+    return oi, ok, ov
+
+
+@jit
+def sort_groups(ni, nk, values):
+    """Sort, in place, each run of equal ``ni`` by ``nk`` (by insertion when the run is
+    short, else ``np.argsort``), permuting ``values`` alike: candidate pairs grouped by left
+    point become sorted by (i, k)."""
+    n = ni.shape[0]
+    lo = 0
+    while lo < n:
+        hi = lo + 1
+        while hi < n and ni[hi] == ni[lo]:
+            hi += 1
+        if hi - lo > SHORT_RUN:  # the keys of a run are distinct: any sort will do
+            perm = np.argsort(nk[lo:hi]) + lo
+            keys = nk[perm]
+            vals = values[perm]
+            for t in range(hi - lo):
+                nk[lo + t] = keys[t]
+                values[lo + t] = vals[t]
+            lo = hi
+            continue
+        for t in range(lo + 1, hi):
+            key = nk[t]
+            val = values[t]
+            u = t - 1
+            while u >= lo and nk[u] > key:
+                nk[u + 1] = nk[u]
+                values[u + 1] = values[u]
+                u -= 1
+            nk[u + 1] = key
+            values[u + 1] = val
+        lo = hi

@@ -1,0 +1,211 @@
+"""The candidate-pair kernels (``hopmatch._kernels.candidates``, SPEC section 4's search
+window) against the brute-force pairs of ``tests/naive.py``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import naive
+from hopmatch._kernels import candidates as _k
+from hopmatch.errors import BudgetExceededError
+from hopmatch.matching.network import candidate_pairs
+from network_problems import make_problem
+
+
+class TestCandidates:
+    @pytest.mark.parametrize("seed", [0, 1, 2])
+    @pytest.mark.parametrize("dmin,dmax,vmax", [(0.0, 15.0, 2.0), (-10.0, 30.0, 15.0),
+                                                (3.0, 7.0, 0.0), (5.0, 5.0, 1.0)])
+    def test_equal_brute_force(self, seed, dmin, dmax, vmax):
+        # integer coordinates: the limits are hit exactly, so inclusiveness is tested
+        left, right, _, _ = make_problem(seed, 40, 35, integer=True)
+        ni, nk = candidate_pairs(left, right, dmin, dmax, vmax, 10**6)
+        want = naive.candidate_pairs(left, right, dmin, dmax, vmax)
+        assert list(zip(ni.tolist(), nk.tolist())) == want
+        assert ni.dtype == np.int32 and nk.dtype == np.int32
+        d = left[ni, 0] - right[nk, 0]
+        assert ((d >= dmin) & (d <= dmax)).all()
+        assert (np.abs(left[ni, 1] - right[nk, 1]) <= vmax).all()
+
+    @pytest.mark.parametrize("vmax", [0.0, 1.0, 2.5])
+    def test_unsorted_output_is_the_same_pairs_grouped_by_left_point(self, vmax):
+        left, right, _, _ = make_problem(5, 60, 70, integer=vmax == 0.0)
+        ni, nk = candidate_pairs(left, right, 0.0, 20.0, vmax, 10**6)
+        ui, uk = candidate_pairs(left, right, 0.0, 20.0, vmax, 10**6, sort=False)
+        assert len(ni) > 20
+        assert sorted(zip(ui.tolist(), uk.tolist())) == list(zip(ni.tolist(), nk.tolist()))
+        groups = [g for g, first in zip(ui.tolist(), np.r_[True, ui[1:] != ui[:-1]]) if first]
+        assert len(groups) == len(set(groups))  # each left point's pairs are contiguous
+        rows = np.floor(left[groups, 1])
+        assert (np.diff(rows) >= 0).all()  # visited row by row
+        values = uk.astype(np.float64) * 10
+        gi, gk, gv = _k.group_by_left(ui, uk, values, len(left), False, 0.0)
+        assert np.array_equal(gi, ni)
+        _k.sort_groups(gi, gk, gv)
+        assert np.array_equal(gk, nk) and np.array_equal(gv, nk * 10.0)
+        # gated: the same as dropping the pairs above the limit (and NaN) first
+        values[::3] = np.nan
+        limit = float(np.nanmedian(values))
+        gi, gk, gv = _k.group_by_left(ui, uk, values, len(left), True, limit)
+        _k.sort_groups(gi, gk, gv)
+        keep = values <= limit
+        wi, wk, wv = _k.group_by_left(ui[keep], uk[keep], values[keep], len(left), False, 0.0)
+        _k.sort_groups(wi, wk, wv)
+        assert 0 < len(gi) < len(ui)
+        assert np.array_equal(gi, wi) and np.array_equal(gk, wk) and np.array_equal(gv, wv)
+
+    @pytest.mark.parametrize("spread", [False, True])
+    def test_row_order_and_band_index_sort_when_rows_spread(self, spread):
+        """Rows spread over far more values than there are points are sorted instead of
+        counted: the orders, and the pairs, are the same either way."""
+        from hopmatch.matching.candidates import left_visit_order, right_band_index
+
+        left, right, _, _ = make_problem(3, 50, 60)
+        if spread:
+            left[::7, 1] += 1e6
+            right[::7, 1] += 1e6
+        visit = left_visit_order(left)
+        assert np.array_equal(visit, np.argsort(np.floor(left[:, 1]), kind="stable"))
+        for limit in (0, 10**7):  # forced sort, forced count
+            assert np.array_equal(_k.row_order(left, limit)[0], visit)
+        rows, row_start, r_order, rx, ry = right_band_index(right)
+        want = sorted(range(len(right)), key=lambda k: (np.floor(right[k, 1]), right[k, 0], k))
+        assert r_order.tolist() == want
+        assert rows.tolist() == sorted(set(np.floor(right[:, 1]).astype(np.int64).tolist()))
+        ni, nk = candidate_pairs(left, right, 0.0, 20.0, 2.0, 10**6)
+        assert list(zip(ni.tolist(), nk.tolist())) == naive.candidate_pairs(
+            left, right, 0.0, 20.0, 2.0)
+
+    def test_right_points_ordered_by_row_then_x_then_index(self):
+        from hopmatch.matching.candidates import right_band_index
+        rng = np.random.default_rng(11)
+        pts = np.column_stack([rng.choice([-3.5, -0.0, 0.0, 1e-30, 2.25, -1e6, 7.0], 400),
+                               rng.choice([-2.5, -0.5, 0.0, 0.75, 3.0], 400)])
+        pts = np.concatenate([pts, rng.uniform(-50, 50, (300, 2))]).astype(np.float32)
+        rows, row_start, order, rx, ry = right_band_index(pts)
+        floor_y = np.floor(pts[:, 1]).astype(np.int64)
+        want = sorted(range(len(pts)), key=lambda k: (floor_y[k], float(pts[k, 0]), k))
+        # -0.0 and 0.0 are equal as numbers; only the index decides between them
+        assert [(floor_y[k], float(pts[k, 0])) for k in order] == \
+            [(floor_y[k], float(pts[k, 0])) for k in want]
+        assert rows.tolist() == sorted(set(floor_y.tolist()))
+        assert all((floor_y[order[row_start[r]:row_start[r + 1]]] == rows[r]).all()
+                   for r in range(len(rows)))
+        assert np.array_equal(rx, pts[order, 0]) and np.array_equal(ry, pts[order, 1])
+
+    def test_subpixel_rows_at_the_band_edges(self):
+        # right points in the rows just outside/inside floor(yl +- vmax)
+        left = np.array([[30.0, 10.5]], np.float32)
+        right = np.array([[25, 9.49], [25, 9.5], [25, 11.5], [25, 11.51], [25, 10.0],
+                          [30.0, 10.5], [9.0, 10.5], [10.0, 10.5]], np.float32)
+        ni, nk = candidate_pairs(left, right, 0.0, 20.0, 1.0, 100)
+        assert nk.tolist() == [1, 2, 4, 5, 7]
+        assert list(zip(ni.tolist(), nk.tolist())) == naive.candidate_pairs(
+            left, right, 0.0, 20.0, 1.0)
+
+    @pytest.mark.parametrize("slack", [-1, 0, 1, 5000])
+    def test_output_grows_up_to_the_budget_and_no_further(self, slack):
+        # many more pairs than the kernel's first allocation (8 per left point + 1024)
+        rng = np.random.default_rng(7)
+        left = np.column_stack([rng.uniform(400, 500, 20), rng.uniform(0, 3, 20)])
+        right = np.column_stack([rng.uniform(0, 500, 3000), rng.uniform(0, 3, 3000)])
+        left, right = left.astype(np.float32), right.astype(np.float32)
+        want = naive.candidate_pairs(left, right, 0.0, 300.0, 1.0)
+        assert len(want) > 8 * 20 + 1024
+        budget = len(want) + slack
+        if slack < 0:
+            with pytest.raises(BudgetExceededError, match=f"would have {len(want)} neurons"):
+                candidate_pairs(left, right, 0.0, 300.0, 1.0, budget)
+            return
+        ni, nk = candidate_pairs(left, right, 0.0, 300.0, 1.0, budget)
+        assert list(zip(ni.tolist(), nk.tolist())) == want
+
+    @pytest.mark.parametrize("seed", [0, 1])
+    def test_epipolar_band_equals_brute_force_and_keeps_the_budget(self, seed):
+        left, right, _, _ = make_problem(seed, 60, 70)
+        rng = np.random.default_rng(seed)
+        f = np.array([[0, 0, 0.001], [0, 0, -1], [0, 1, 0]]) + rng.normal(0, 1e-3, (3, 3))
+        want = naive.epipolar_candidate_pairs(left, right, 0.0, 20.0, 2.0, f)
+        assert len(want) > 20
+        ni, nk = candidate_pairs(left, right, 0.0, 20.0, 2.0, len(want), f)
+        assert list(zip(ni.tolist(), nk.tolist())) == want
+        with pytest.raises(BudgetExceededError, match=f"would have {len(want)} neurons"):
+            candidate_pairs(left, right, 0.0, 20.0, 2.0, len(want) - 1, f)
+
+    @pytest.mark.parametrize("max_entries", [1, 40, 10**4])
+    def test_row_buckets_bracket_every_x_range(self, max_entries):
+        """Every point of a row within [x_lo, x_hi] lies between the table entries of the
+        two end buckets, for any budget of entries (one bucket per row at the least) and
+        for queries far outside the points."""
+        from hopmatch.matching.candidates import right_band_index
+        rng = np.random.default_rng(4)
+        pts = np.column_stack([np.round(rng.uniform(-40, 60, 300), 1),
+                               rng.integers(0, 12, 300)]).astype(np.float32)
+        rows, row_start, order, rx, ry = right_band_index(pts)
+        table, x0, inv, nb = _k.row_buckets(row_start, rx, max_entries)
+        assert nb >= 1 and len(table) == len(rows) * (nb + 1)
+        table = table.reshape(len(rows), nb + 1)
+        assert (np.diff(table, axis=1) >= 0).all()
+        assert (table[:, 0] == row_start[:-1]).all() and (table[:, -1] == row_start[1:]).all()
+        queries = [-1e300, -41.0, -40.0, -3.3, 0.0, 12.25, 59.9, 60.0, 75.0, 1e300]
+        for x_lo in queries:
+            for x_hi in queries:
+                if x_hi < x_lo:
+                    continue
+                b_lo = _k._bucket(x_lo, x0, inv, nb)
+                b_hi = _k._bucket(x_hi, x0, inv, nb) + 1
+                for r in range(len(rows)):
+                    inside = [t for t in range(row_start[r], row_start[r + 1])
+                              if x_lo <= float(rx[t]) <= x_hi]
+                    assert all(table[r, b_lo] <= t < table[r, b_hi] for t in inside)
+
+    @pytest.mark.parametrize("dmin,dmax", [(0.0, 1e30), (-1e30, 1e30), (-5.0, 2.0)])
+    def test_extreme_ranges_and_spans_equal_brute_force(self, dmin, dmax):
+        """Disparity limits far beyond the points, a few points far from the others (a wide
+        x span, so wide buckets) and many rows give the brute-force pairs."""
+        left, right, _, _ = make_problem(2, 70, 80, width=60.0, height=2.0)
+        right[:, 1] = np.arange(len(right), dtype=np.float32) * 0.25  # 80 points, 40 rows
+        left[:, 1] = np.float32(8.0)
+        right[::20, 0] = np.float32([-1e5, 1e5, -3e4, 7e4])
+        left[::30, 0] = np.float32([1e5, -1e5, 5e4])
+        for l_, r_ in ((left, right), (right, left)):
+            ni, nk = candidate_pairs(l_, r_, dmin, dmax, 2.0, 10**6)
+            want = naive.candidate_pairs(l_, r_, dmin, dmax, 2.0)
+            assert len(want) > 0
+            assert list(zip(ni.tolist(), nk.tolist())) == want
+
+    def test_crowded_buckets_equal_brute_force(self):
+        """One far-out right point makes the buckets ~1e4 px wide, so all the others crowd
+        into one bucket per row, far more than BUCKET_SCAN_MAX: the search narrows them and
+        still gives every pair of a narrow band."""
+        rng = np.random.default_rng(12)
+        right = np.column_stack([rng.uniform(0, 200, 600), rng.integers(0, 3, 600)])
+        right[0] = (1e6, 1.0)
+        left = np.column_stack([rng.uniform(0, 200, 80), rng.integers(0, 3, 80) + 0.5])
+        left, right = left.astype(np.float32), right.astype(np.float32)
+        from hopmatch.matching.candidates import right_band_index
+        _, row_start, _, rx, _ = right_band_index(right)
+        table, _, _, nb = _k.row_buckets(
+            row_start, rx, _k.BUCKETS_PER_POINT * len(right) + _k.BUCKET_SLACK)
+        assert np.diff(table.reshape(-1, nb + 1), axis=1).max() > _k.BUCKET_SCAN_MAX
+        for dmin, dmax in ((0.0, 3.0), (-2.0, 0.5), (0.0, 150.0)):
+            ni, nk = candidate_pairs(left, right, dmin, dmax, 1.0, 10**6)
+            want = naive.candidate_pairs(left, right, dmin, dmax, 1.0)
+            assert len(want) > 0
+            assert list(zip(ni.tolist(), nk.tolist())) == want
+
+    def test_limits_are_inclusive(self):
+        left = np.array([[20, 10]], np.float32)
+        right = np.array([[20, 10], [5, 10], [4, 10], [10, 8], [10, 7.5], [21, 10]], np.float32)
+        ni, nk = candidate_pairs(left, right, 0.0, 15.0, 2.0, 100)
+        assert nk.tolist() == [0, 1, 3]
+        assert naive.candidate_pairs(left, right, 0.0, 15.0, 2.0) == [(0, 0), (0, 1), (0, 3)]
+
+    def test_budget(self):
+        left, right, _, _ = make_problem(0, 30)
+        n = len(naive.candidate_pairs(left, right, 0.0, 15.0, 3.0))
+        assert n > 10
+        assert len(candidate_pairs(left, right, 0.0, 15.0, 3.0, n)[0]) == n
+        with pytest.raises(BudgetExceededError):
+            candidate_pairs(left, right, 0.0, 15.0, 3.0, n - 1)

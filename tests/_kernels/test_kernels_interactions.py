@@ -1,0 +1,116 @@
+"""The interaction kernels (``hopmatch._kernels.interactions``, eqs. 5, 6 and 10) against the
+dense network of ``tests/naive.py``: the stored pairs, their weights, their count."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import naive
+from hopmatch._kernels import interactions as _k
+from network_problems import (
+    CONFIGS,
+    PROBLEMS,
+    brute_force_interactions,
+    kernel_network,
+    make_problem,
+    params,
+    sparse_t,
+    stored_weights,
+)
+
+
+@pytest.fixture(scope="module", params=sorted(CONFIGS))
+def config(request):
+    """Each parameter set of ``CONFIGS`` in turn."""
+    return request.param
+
+
+class TestDenseReference:
+    @pytest.mark.parametrize("seed,n", PROBLEMS)
+    def test_weights_equal_dense_t(self, config, seed, n):
+        p = params(**CONFIGS[config])
+        problem = make_problem(seed, n)
+        net = kernel_network(*problem, p)
+        dense = naive.dense_network(*problem, p)
+        assert np.array_equal(net["ni"], dense["ni"]) and np.array_equal(net["nk"], dense["nk"])
+        assert np.allclose(net["sim"], dense["sim"], rtol=1e-9)
+        # the stored interactions are exactly the pairs that interact through C
+        stored = np.zeros_like(dense["adj"])
+        for q in range(len(net["ni"])):
+            stored[q, net["idx"][net["off"][q]:net["off"][q + 1]]] = True
+        assert np.array_equal(stored, dense["adj"])
+        assert net["n_inter"] == dense["adj"].sum() == len(net["w"])
+        # eq. 11: T = C - w (delta_ij + delta_kl), zero diagonal; symmetric
+        t = sparse_t(net, p["uniqueness_weight"])
+        assert np.allclose(t, dense["T"], rtol=0, atol=1e-7)   # float32 weights: ~1 ulp
+        assert np.allclose(dense["T"], dense["T"].T, atol=0)
+        assert not np.diag(dense["T"]).any()
+        if n >= 15:
+            c = dense["C"][dense["adj"]]
+            assert len(c) > 0 and (np.abs(c) <= 1).all() and (c > 0).any()
+
+
+class TestMirroredWeights:
+    """``fill_interactions`` computes each symmetric weight once and copies it to its mirror
+    entry, and only when that entry is the mirror."""
+    @pytest.mark.parametrize("seed", range(4))
+    def test_symmetric_lists_give_exactly_symmetric_weights(self, config, seed):
+        p = params(**CONFIGS[config])
+        problem = make_problem(seed, 30)
+        net = kernel_network(*problem, p)
+        dense = naive.dense_network(*problem, p)
+        w = stored_weights(net["off"], net["idx"], net["w"], len(net["ni"]))
+        assert np.array_equal(w, w.T, equal_nan=True)
+        assert np.allclose(np.nan_to_num(w), dense["C"], rtol=0, atol=1e-7)
+
+    @pytest.mark.parametrize("seed", range(4))
+    def test_one_sided_lists_give_each_pair_its_own_weight(self, seed):
+        """Neighbour lists where j may list i but not the reverse: every stored weight is
+        still eq. 5 of its own pair, whether a mirror entry exists or not."""
+        p = params(**CONFIGS["default"])
+        left, right, desc_l, desc_r = make_problem(seed, 30)
+        net = kernel_network(left, right, desc_l, desc_r, p)
+        dense = naive.dense_network(left, right, desc_l, desc_r, p)
+        rng = np.random.default_rng(seed)
+        keep = rng.random(len(net["nb_idx"])) < 0.6
+        kept_before = np.r_[0, np.cumsum(keep)]
+        nb_off = kept_before[net["nb_off"]]  # each list keeps its kept entries, in order
+        nb_idx = net["nb_idx"][keep]
+        ni, nk, start = net["ni"], net["nk"], net["start"]
+        n_inter = _k.count_interactions(ni, nk, start, nb_off, nb_idx)
+        off, idx, w = _k.fill_interactions(left, right, ni, nk, start, nb_off, nb_idx,
+                                           p["similarity_weight"] * net["sim"], p["theta"],
+                                           p["slope"], n_inter)
+        assert off[-1] == n_inter > 0
+        got = stored_weights(off, idx, w, len(ni))
+        stored = ~np.isnan(got)
+        assert (stored <= dense["adj"]).all() and stored.sum() < dense["adj"].sum()
+        assert (stored & ~stored.T).any() and (stored & stored.T).any()  # both cases met
+        assert np.allclose(got[stored], dense["C"][stored], rtol=0, atol=1e-7)
+
+
+class TestSparsity:
+    @pytest.mark.parametrize("seed,n", PROBLEMS)
+    def test_count_small(self, config, seed, n):
+        p = params(**CONFIGS[config])
+        problem = make_problem(seed, n)
+        net = kernel_network(*problem, p)
+        cnt = np.diff(net["start"])
+        bound = sum(cnt[net["nb_idx"][net["nb_off"][i]:net["nb_off"][i + 1]]].sum()
+                    for i in net["ni"])
+        assert net["n_inter"] <= bound
+        assert _k.interaction_bound(net["start"], net["nb_off"], net["nb_idx"]) == bound
+        if p["similarity_gate"] is None and not p["max_candidates"]:
+            assert (net["n_inter"], bound) == brute_force_interactions(problem[0], problem[1], p)
+
+
+def test_compatibility_equals_reference():
+    """Eq. 5 against ``naive.compatibility``, through the edge ``theta`` and far past it
+    (where the kernel returns the limit -1)."""
+    for theta, slope in ((10.0, 0.5), (34.0, 2.0), (0.5, 4.0)):
+        for x in np.r_[np.linspace(0.0, 3.0 * theta, 61), 1e3, 1e6]:
+            got = _k.compatibility(x, theta, slope)
+            assert -1.0 <= got <= 1.0  # rounds to the limits far from theta
+            assert got == pytest.approx(naive.compatibility(x, theta, slope), rel=0, abs=1e-15)
+        assert _k.compatibility(theta, theta, slope) == 0.0
