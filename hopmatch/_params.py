@@ -4,14 +4,21 @@ A class lists its parameters once, as :class:`Param` specs in ``PARAMS``; this m
 it keyword construction with validation, ``getX``/``setX`` accessors named as OpenCV names
 them (``window_size`` -> ``getWindowSize``), ``write``/``read`` through ``cv2.FileStorage``,
 ``__repr__``, equality of configuration and pickling.
+
+Each :class:`Param` says what it takes (``kind``, ``choices``, ``optional``) and what it
+means (``doc``), so that the command line builds its options from these fields alone; the
+validator factories (:func:`integer`, :func:`real`, :func:`boolean`, :func:`choice`) return
+:class:`Check` objects carrying them, and every error a check raises has
+:attr:`~hopmatch.errors.HopmatchError.argument` set to the parameter's name.
 """
 
 from __future__ import annotations
 
+import inspect
 import numbers
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -19,19 +26,103 @@ import cv2
 
 from ._files import atomic_path
 from ._validate import as_int, as_real
-from .errors import InvalidArgumentError, InvalidTypeError
+from .errors import HopmatchError, InvalidArgumentError, InvalidTypeError
 
 _NONE_MARK = "__none__"
 
 
+#: The kinds of parameter value (:attr:`Param.kind`).
+KINDS = ("int", "float", "bool", "choice", "text")
+
+
+@dataclass(frozen=True)
+class Check:
+    """A parameter validator, as the factories :func:`integer`, :func:`real`,
+    :func:`boolean` and :func:`choice` make it.
+
+    ``check(name, value)`` returns the normalised value or raises a
+    :class:`~hopmatch.errors.HopmatchError` whose :attr:`~hopmatch.errors.HopmatchError.argument`
+    is ``name``. The attributes say what it accepts, so that callers (the command line, the
+    docs) need not guess it by trying values.
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`KINDS`: ``"int"``, ``"float"``, ``"bool"``, ``"choice"`` (one of
+        ``choices``) or ``"text"``.
+    func : callable
+        ``func(name, value) -> value``, the check itself.
+    choices : tuple of str
+        The accepted values of a ``"choice"``; empty otherwise.
+    optional : bool
+        None is accepted (and kept).
+    """
+
+    kind: str
+    func: Callable[[str, Any], Any]
+    choices: tuple = ()
+    optional: bool = False
+
+    def __call__(self, name: str, value):
+        try:
+            return self.func(name, value)
+        except HopmatchError as exc:
+            if exc.argument is None:
+                exc.argument = name
+            raise
+
+
 @dataclass(frozen=True)
 class Param:
-    """One parameter: its name, default and a validator returning the normalised value."""
+    """One parameter: its name, default and a validator returning the normalised value.
+
+    Attributes
+    ----------
+    name : str
+        The keyword (``window_size``); accessors are ``getWindowSize``/``setWindowSize``.
+    default : object
+        The value when not given (None: unset, for optional parameters).
+    check : callable
+        ``check(name, value) -> normalised value``; a :class:`Check` from one of the
+        factories (:func:`integer`, :func:`real`, :func:`boolean`, :func:`choice`) or any
+        function raising :class:`~hopmatch.errors.HopmatchError`.
+    doc : str
+        One-paragraph description. When empty, :class:`Configurable` subclasses fill it
+        from the ``Parameters`` section of their numpydoc docstring.
+    kind, choices, optional
+        As :class:`Check`'s; taken from ``check`` when it is one, else ``kind`` follows the
+        type of ``default`` (``"text"`` when None) unless given.
+    """
 
     name: str
     default: Any
     check: Callable[[str, Any], Any]
     doc: str = ""
+    kind: str = ""
+    choices: tuple = ()
+    optional: bool | None = None
+
+    def __post_init__(self):
+        check = self.check if isinstance(self.check, Check) else None
+        kind = self.kind or (check.kind if check else _kind_of(self.default))
+        if kind not in KINDS:
+            raise InvalidArgumentError(f"`kind` must be one of {list(KINDS)}, got {kind!r}",
+                                       argument="kind")
+        object.__setattr__(self, "kind", kind)
+        if not self.choices and check:
+            object.__setattr__(self, "choices", check.choices)
+        if self.optional is None:
+            object.__setattr__(self, "optional", check.optional if check else self.default is None)
+
+
+def _kind_of(default) -> str:
+    if isinstance(default, bool):
+        return "bool"
+    if isinstance(default, numbers.Integral):
+        return "int"
+    if isinstance(default, numbers.Real):
+        return "float"
+    return "text"
 
 
 def camel(name: str) -> str:
@@ -39,26 +130,59 @@ def camel(name: str) -> str:
     return "".join(part[:1].upper() + part[1:] for part in name.split("_"))
 
 
+def numpydoc_parameters(doc: str | None) -> dict[str, str]:
+    """The description of each name of the numpydoc ``Parameters`` section of ``doc``, on
+    one line, without double backticks (``"a, b : int"`` gives both names the text)."""
+    out, names, text, inside = {}, [], [], False
+
+    def flush():
+        description = " ".join(text).replace("``", "").strip()
+        for n in names:
+            out[n] = description
+
+    for line in inspect.cleandoc(doc or "").splitlines():
+        stripped = line.strip()
+        if stripped == "Parameters":
+            inside = True
+            continue
+        if not inside or set(stripped) == {"-"}:
+            continue
+        indent = len(line) - len(line.lstrip())
+        if stripped and indent == 0 and " : " in stripped:
+            flush()
+            names = [n.strip() for n in stripped.split(" : ")[0].split(",")]
+            text = []
+        elif stripped and indent == 0:  # next section
+            break
+        elif stripped:
+            text.append(stripped)
+    flush()
+    return out
+
+
 # -- validators --------------------------------------------------------------------------
 
 
-def integer(lo: int | None = None, hi: int | None = None, *, odd: bool = False, optional=False):
+def integer(lo: int | None = None, hi: int | None = None, *, odd: bool = False,
+            optional=False) -> Check:
     """A parameter check: an integer in ``[lo, hi]`` (and int64), see :func:`as_int`."""
     def check(name, value):
         return as_int(value, name, lo=lo, hi=hi, odd=odd, optional=optional)
 
-    return check
+    return Check("int", check, optional=bool(optional))
 
 
-def real(lo=None, hi=None, *, lo_open=False, optional=False):
+def real(lo=None, hi=None, *, lo_open=False, optional=False) -> Check:
     """A parameter check: a finite number in ``[lo, hi]``, see :func:`as_real`."""
     def check(name, value):
         return as_real(value, name, lo=lo, hi=hi, lo_open=lo_open, optional=optional)
 
-    return check
+    return Check("float", check, optional=bool(optional))
 
 
-def boolean():
+def boolean() -> Check:
+    """A parameter check: True or False (the integers 0 and 1 too, as FileStorage stores
+    booleans)."""
     def check(name, value):
         if isinstance(value, bool):
             return value
@@ -66,10 +190,11 @@ def boolean():
             return bool(value)
         raise InvalidTypeError(f"`{name}` must be True or False, got {type(value).__name__} {value!r}")
 
-    return check
+    return Check("bool", check)
 
 
-def choice(*options: str):
+def choice(*options: str) -> Check:
+    """A parameter check: one of the strings ``options``."""
     def check(name, value):
         if not isinstance(value, str):
             raise InvalidTypeError(f"`{name}` must be one of {list(options)}, got {value!r}")
@@ -77,7 +202,7 @@ def choice(*options: str):
             raise InvalidArgumentError(f"`{name}` must be one of {list(options)}, got {value!r}")
         return value
 
-    return check
+    return Check("choice", check, choices=tuple(options))
 
 
 # -- the base class ----------------------------------------------------------------------
@@ -93,6 +218,12 @@ class Configurable:
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
+        if "PARAMS" in cls.__dict__:  # a Param without doc takes the class docstring's text
+            docs = numpydoc_parameters(cls.__doc__)
+            if any(not p.doc and docs.get(p.name) for p in cls.PARAMS):
+                cls.PARAMS = tuple(
+                    replace(p, doc=docs[p.name]) if not p.doc and docs.get(p.name) else p
+                    for p in cls.PARAMS)
         for p in cls.PARAMS:
             getter_name, setter_name = "get" + camel(p.name), "set" + camel(p.name)
             if getter_name not in cls.__dict__:
@@ -254,6 +385,8 @@ def state_params(obj, state) -> dict:
             "expected {'params': {...}} as written by pickling one"
         )
     return state["params"]
+
+
 
 
 def _make_getter(name):

@@ -3,7 +3,9 @@
 Every error raised at the public boundary is one of these, and every warning hopmatch emits
 is a :class:`HopmatchWarning` (see ``docs/robustness.md``). They subclass the built-in
 ``ValueError`` / ``TypeError`` so that code written for OpenCV or NumPy catches them as it
-already does; each message names the argument, what was expected and what came.
+already does; each message names the argument, what was expected and what came, and
+:attr:`HopmatchError.argument` holds that argument's name for programs (the command line
+maps it to its option).
 """
 
 from __future__ import annotations
@@ -22,7 +24,31 @@ __all__ = [
 
 
 class HopmatchError(Exception):
-    """Base class of every error hopmatch raises on purpose."""
+    """Base class of every error hopmatch raises on purpose.
+
+    Attributes
+    ----------
+    argument : str or None
+        The name of the parameter or argument the error is about (``"window_size"``,
+        ``"left"``), as the message spells it between backticks; None when the error is
+        not about one argument (or was raised where that is not known). Given as the
+        keyword ``argument=`` or set afterwards by the code that validated the value.
+
+    Examples
+    --------
+    >>> import hopmatch
+    >>> try:
+    ...     hopmatch.DericheMoravecDetector.create(window_size=4)
+    ... except HopmatchError as exc:
+    ...     print(exc.argument, "|", exc)
+    window_size | `window_size` must be odd, got 4
+    """
+
+    argument: str | None = None
+
+    def __init__(self, *args, argument: str | None = None):
+        super().__init__(*args)
+        self.argument = argument
 
 
 class InvalidArgumentError(HopmatchError, ValueError):

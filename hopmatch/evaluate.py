@@ -22,7 +22,8 @@ from scipy.spatial import cKDTree
 from ._validate import as_points, as_real, describe
 from .errors import InvalidArgumentError, InvalidTypeError
 
-__all__ = ["MatchScore", "error_histogram", "repeatability", "score_matches"]
+__all__ = ["MatchScore", "correct_matches", "error_histogram", "repeatability",
+           "score_matches"]
 
 
 # --------------------------------------------------------------------------------------
@@ -311,6 +312,60 @@ def score_matches(
         errors=np.ascontiguousarray(errors),
         scored=scored,
     )
+
+
+def correct_matches(score: MatchScore, left_pts, right_pts, tolerance: float = 1.0):
+    """Which matches are correct at ``tolerance`` px: the per-match form of
+    ``score.correct[tolerance]``.
+
+    Parameters
+    ----------
+    score : MatchScore
+        What :func:`score_matches` returned for these matches.
+    left_pts, right_pts : (N, 2) float32 array_like or sequence of cv2.KeyPoint
+        The matched points given to :func:`score_matches`.
+    tolerance : float
+        Disparity tolerance ``t`` in pixels (> 0). The vertical tolerance is the score's
+        ``vertical_tolerance``, or ``t`` when that is None, as in :func:`score_matches`.
+
+    Returns
+    -------
+    correct : (N,) bool ndarray
+        Scored, with ``|(xl - xr) - d_gt| <= t`` and ``|yl - yr|`` within the vertical
+        tolerance; ``correct.sum() == score.correct[t]`` when ``t`` is one of the score's
+        thresholds.
+    known : (N,) bool ndarray
+        The matches that have ground truth (``score.scored``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> gt = np.full((10, 20), 4.0, np.float32); gt[:, :5] = np.nan
+    >>> left = np.array([[10, 2], [12, 5], [3, 3]], np.float32)
+    >>> right = np.array([[6, 2], [6.5, 5], [0, 3]], np.float32)
+    >>> s = score_matches(left, right, gt, thresholds=(1.0,))
+    >>> correct, known = correct_matches(s, left, right, 1.0)
+    >>> correct.tolist(), known.tolist()
+    ([True, False, False], [True, True, False])
+    """
+    if not isinstance(score, MatchScore):
+        raise InvalidTypeError(
+            f"`score` must be the MatchScore of score_matches, got {describe(score)}",
+            argument="score")
+    left = as_points(left_pts, "left_pts")
+    right = as_points(right_pts, "right_pts")
+    if not left.shape[0] == right.shape[0] == score.n_matches:
+        raise InvalidArgumentError(
+            f"`left_pts` and `right_pts` must hold the {score.n_matches} matches that were "
+            f"scored, got {left.shape[0]} and {right.shape[0]} points", argument="left_pts")
+    tol = as_real(tolerance, "tolerance", lo=0.0, lo_open=True)
+    vtol = tol if score.vertical_tolerance is None else score.vertical_tolerance
+    known = np.asarray(score.scored, dtype=bool)
+    correct = np.zeros(len(known), dtype=bool)
+    idx = np.flatnonzero(known)
+    dy = np.abs(left[idx, 1] - right[idx, 1])
+    correct[idx] = (np.abs(score.errors) <= tol) & (dy <= vtol)
+    return correct, known
 
 
 # --------------------------------------------------------------------------------------

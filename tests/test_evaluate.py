@@ -434,3 +434,40 @@ def test_tsukuba_ground_truth_matcher(shared_data):
     s = score_matches(left, right, scene.disparity, right_keypoints=right, left_keypoints=left)
     assert s.recall == {0.5: 1.0, 1.0: 1.0, 2.0: 1.0}
     assert repeatability(left, right, scene.disparity, tolerance=0.5) == (1.0, 500, 500)
+
+
+# --------------------------------------------------------------------------------------
+# correct_matches: the per-match flag
+# --------------------------------------------------------------------------------------
+
+
+def test_correct_matches_agrees_with_the_counts():
+    from hopmatch.evaluate import correct_matches
+
+    rng = np.random.default_rng(5)
+    gt = np.full((40, 60), 3.0, np.float32)
+    gt[:, :10] = np.nan
+    left = (rng.random((200, 2)) * [59, 39]).astype(np.float32)
+    right = left - np.float32([3, 0]) + rng.normal(0, 1.0, (200, 2)).astype(np.float32)
+    s = score_matches(left, right, gt, thresholds=(0.5, 1.0, 2.0))
+    for t in s.thresholds:
+        correct, known = correct_matches(s, left, right, t)
+        assert int(correct.sum()) == s.correct[t]
+        assert np.array_equal(known, s.scored) and not (correct & ~known).any()
+    vt = score_matches(left, right, gt, thresholds=(1.0,), vertical_tolerance=0.25)
+    assert int(correct_matches(vt, left, right, 1.0)[0].sum()) == vt.correct[1.0]
+
+
+def test_correct_matches_bad_arguments():
+    from hopmatch.evaluate import correct_matches
+
+    gt = np.full((10, 20), 4.0, np.float32)
+    left = np.array([[10, 2]], np.float32)
+    s = score_matches(left, left - [4, 0], gt)
+    with pytest.raises(InvalidTypeError, match="score") as info:
+        correct_matches({"scored": []}, left, left)
+    assert info.value.argument == "score"
+    with pytest.raises(InvalidArgumentError, match="1 matches"):
+        correct_matches(s, np.zeros((2, 2), np.float32), np.zeros((2, 2), np.float32))
+    with pytest.raises(InvalidArgumentError, match="tolerance"):
+        correct_matches(s, left, left - [4, 0], 0.0)

@@ -209,6 +209,29 @@ class TestMatchPairs:
         with pytest.raises(ValueError, match="window_size"):
             hopmatch_dask.match_pairs([("a.png", "b.png")], client, window_size=4)
 
+    def test_parameters_are_split_by_the_library_rule(self, tmp_path):
+        """check_params is match_stereo's split (split_parameters / stereo_pipeline)."""
+        with pytest.raises(ValueError, match=r"run_batch got unknown parameter\(s\) \['nms'\]"):
+            run_batch([("a.png", "b.png")], tmp_path / "out", nms=3)
+        with pytest.raises(ValueError, match="match_pairs got unknown parameter") as info:
+            hopmatch_dask.match_pairs([("a.png", "b.png")], nms=3)
+        assert info.value.argument is None
+        with pytest.raises(ValueError) as info:
+            hopmatch_dask.check_params({"similarity_gate": -1.0})
+        assert info.value.argument == "similarity_gate"
+        params = {"preset": "paper", "window_size": 7, "max_disparity": 12.0}
+        assert hopmatch_dask.check_params(params) == params
+
+
+def test_one_matches_table_writer():
+    """The plugin writes <name>.csv with the library's writer, as hopmatch match does."""
+    from hopmatch import _tables
+    from hopmatch_dask import results
+
+    assert results.matches_table is _tables.matches_table
+    assert results.COLUMNS == _tables.MATCH_COLUMNS == tuple(
+        "left_x left_y right_x right_y disparity distance".split())
+
 
 class TestReadPairs:
     def test_relative_paths_and_default_names(self, tmp_path):

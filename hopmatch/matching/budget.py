@@ -62,7 +62,7 @@ def check_neighbour_budget(points: np.ndarray, config) -> None:
             f"the left points are so crowded that their neighbour lists could hold {bound} "
             f"pairs (an upper bound), more than max_interactions={max_interactions}; "
             "remove duplicate keypoints, shrink neighbour_width/neighbour_height, use fewer "
-            "keypoints, or raise max_interactions"
+            "keypoints, or raise max_interactions", argument="max_interactions"
         )
 
 
@@ -78,7 +78,8 @@ def interaction_capacity(ni, nk, start, nb_off, nb_idx, max_interactions: int) -
         raise BudgetExceededError(
             f"the network would have {n_inter} interactions, more than max_interactions="
             f"{max_interactions}; shrink neighbour_width/neighbour_height, narrow the "
-            "disparity range, use fewer keypoints, or raise max_interactions"
+            "disparity range, use fewer keypoints, or raise max_interactions",
+            argument="max_interactions"
         )
     return n_inter
 
@@ -90,5 +91,6 @@ def check_energy_trace(max_iterations: int, record_energy: bool) -> None:
         raise BudgetExceededError(
             f"record_energy=True keeps one float64 per iteration, and max_iterations="
             f"{max_iterations} would need {8 * (max_iterations + 1) / 2**30:.3g} GiB; lower "
-            f"max_iterations to at most {MAX_ENERGY_TRACE - 1} or pass record_energy=False"
+            f"max_iterations to at most {MAX_ENERGY_TRACE - 1} or pass record_energy=False",
+            argument="max_iterations"
         )

@@ -97,7 +97,7 @@ def check_disparity_order(min_disparity: float, max_disparity: float | None) -> 
         raise InvalidArgumentError(
             f"`max_disparity` ({max_disparity}) must not be below `min_disparity` "
             f"({min_disparity}); swap them or leave max_disparity=None (a quarter "
-            "of the image width)"
+            "of the image width)", argument="max_disparity"
         )
 
 

@@ -2,7 +2,7 @@
 matches), from :mod:`hopmatch.viz.figures` and from ``hopmatch match --figures``.
 
 The command runs through its real entry point in subprocesses (``python -m hopmatch.cli``),
-as in ``tests/test_cli.py``.
+as in ``tests/cli/``.
 """
 
 from __future__ import annotations

@@ -15,34 +15,29 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import hopmatch
-from hopmatch.errors import InvalidArgumentError
+from hopmatch._files import write_text_atomic
+from hopmatch.matching.stereo_match import stereo_pipeline
 
 from .pairs import Pair, as_pairs
-from .results import complete_rows, summary_table, write_text_atomic
+from .results import complete_rows, summary_table
 from .tasks import batch_task, match_pair
 
 __all__ = ["BatchReport", "Outcome", "check_params", "local_cluster", "match_pairs",
            "run_batch"]
 
-_DETECTOR_NAMES = {p.name for p in hopmatch.DericheMoravecDetector.PARAMS}
-_MATCHER_NAMES = {p.name for p in hopmatch.HopfieldMatcher.PARAMS}
-
 #: Seconds to wait for a scheduler given by address.
 CONNECT_TIMEOUT = 30
 
 
-def check_params(params: dict) -> dict:
+def check_params(params: dict, caller: str = "hopmatch_dask") -> dict:
     """``params`` if :func:`hopmatch.match_stereo` accepts them, else its error (raised here,
-    on the client, before anything is submitted)."""
-    unknown = sorted(set(params) - _DETECTOR_NAMES - _MATCHER_NAMES)
-    if unknown:
-        raise InvalidArgumentError(
-            f"unknown parameter(s) {unknown}; valid parameters are "
-            f"{sorted(_DETECTOR_NAMES | _MATCHER_NAMES)}"
-        )
-    hopmatch.DericheMoravecDetector(**{k: v for k, v in params.items() if k in _DETECTOR_NAMES})
-    hopmatch.HopfieldMatcher(**{k: v for k, v in params.items() if k in _MATCHER_NAMES})
+    on the client, before anything is submitted).
+
+    The parameters are shared between the detector and the matcher by the library's one rule,
+    :func:`hopmatch.matching.stereo_match.stereo_pipeline`; an unknown name raises
+    :class:`~hopmatch.errors.InvalidArgumentError` naming ``caller``.
+    """
+    stereo_pipeline(params, caller)
     return dict(params)
 
 
@@ -81,7 +76,7 @@ def match_pairs(pairs, client=None, **params):
     ...                           max_disparity=64)
     ...     results = client.gather(futures)
     """
-    params = check_params(params)
+    params = check_params(params, "match_pairs")
     items = as_pairs(pairs)
     if client is not None:
         return [client.submit(match_pair, p, params, key=_key("hopmatch-pair", p, params),
@@ -130,8 +125,8 @@ def local_cluster(workers: int | None = None, **kwargs):
     per core) of one thread each, listening on 127.0.0.1 only, no dashboard.
 
     OpenCV in each worker runs on one thread (``OPENCV_FOR_THREADS_NUM=1``): the workers
-    already use every core, and OpenCV's own threads only add contention (on 2 cores, one
-    worker matches about 1.8x more pairs per second so; see ``benchmarks/dask_batch.py``).
+    already use every core, and OpenCV's own threads only add contention (measured by
+    ``benchmarks/dask_batch.py``, see ``docs/cluster.md``).
     ``kwargs`` go to ``LocalCluster`` (``env`` is merged).
     """
     from distributed import LocalCluster
@@ -199,7 +194,7 @@ def run_batch(pairs, out, *, client=None, scheduler: str | None = None,
     mid-task has its tasks run again elsewhere (up to ``distributed.scheduler.allowed-failures``
     times, 3 by default, then the pair fails with ``KilledWorker``).
     """
-    params = check_params(params)
+    params = check_params(params, "run_batch")
     items = as_pairs(pairs)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

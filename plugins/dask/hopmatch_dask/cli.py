@@ -1,9 +1,10 @@
 """``hopmatch batch``: match the pairs of PAIRS.csv on a Dask cluster.
 
-The command is a click command meant to join the ``hopmatch`` group::
-
-    from hopmatch_dask.cli import batch
-    cli.add_command(batch)          # in hopmatch/cli.py, after the group is defined
+The command is a click command that the ``hopmatch`` group loads when ``hopmatch batch`` is
+first used (``hopmatch.cli.group.PluginGroup.PLUGINS``), so that the other commands do not
+import Dask; without this package, ``hopmatch batch`` says what to install. Its detector and
+matcher options are generated as those of ``hopmatch match``
+(:func:`hopmatch.cli.parameter_options`).
 
 It follows the conventions of ``hopmatch``: bad input raises ``click.BadParameter`` /
 ``click.UsageError`` naming the file or option (shown by ``hopmatch`` as
@@ -95,15 +96,20 @@ def batch(ctx, pairs_csv, out, scheduler, workers, **params):
     Detector and matcher options are those of 'hopmatch match'.
     """
     quiet = bool((ctx.find_root().obj or {}).get("quiet"))
-    given = {**given_parameters(params, hopmatch.DericheMoravecDetector),
-             **given_parameters(params, hopmatch.HopfieldMatcher)}
+    given = given_parameters(params, hopmatch.DericheMoravecDetector, hopmatch.HopfieldMatcher)
     if scheduler and workers:
         raise click.UsageError("--workers sets the size of the local cluster; it cannot be "
                                "used with --scheduler (size that cluster where it runs)")
     try:
-        check_params(given)
+        check_params(given, "hopmatch batch")
     except HopmatchError as exc:
-        raise click.UsageError(" ".join(str(exc).split())) from None
+        message = " ".join(str(exc).split())
+        if exc.argument in given:  # about one option: name it, as hopmatch match does
+            prefix = f"`{exc.argument}` "
+            raise click.BadParameter(message[len(prefix):] if message.startswith(prefix)
+                                     else message,
+                                     param_hint="--" + exc.argument.replace("_", "-")) from None
+        raise click.UsageError(message) from None
     try:
         pairs = read_pairs(pairs_csv)
     except HopmatchError as exc:

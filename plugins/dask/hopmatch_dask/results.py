@@ -1,4 +1,5 @@
-"""Result files: the matches table (as ``hopmatch match`` writes it) and the summary."""
+"""Result files: the matches table (written by ``hopmatch match``'s writer,
+:func:`hopmatch._tables.matches_table`) and the summary."""
 
 from __future__ import annotations
 
@@ -6,42 +7,17 @@ import csv
 import io
 from pathlib import Path
 
-import numpy as np
-
-from hopmatch.viz import write_text_atomic
+from hopmatch._files import write_text_atomic
+from hopmatch._tables import MATCH_COLUMNS, matches_table
 
 __all__ = ["COLUMNS", "SUMMARY_COLUMNS", "complete_rows", "matches_table", "summary_table",
            "write_text_atomic"]
 
-#: Columns of ``<name>.csv``: those of ``hopmatch match``'s matches.csv.
-COLUMNS = ("left_x", "left_y", "right_x", "right_y", "disparity", "distance")
+#: Columns of ``<name>.csv``: those of ``hopmatch match``'s matches.csv
+#: (:func:`matches_table` is the writer both use).
+COLUMNS = MATCH_COLUMNS
 #: Columns of ``summary.csv``.
 SUMMARY_COLUMNS = ("name", "status", "matches", "seconds", "error")
-
-
-def _f32(values) -> list[str]:
-    """Shortest decimal strings that read back as the same float32 values."""
-    return [str(v) for v in np.asarray(values, dtype=np.float32).reshape(-1)]
-
-
-def matches_table(matched_left, matched_right, disparities, distances) -> str:
-    """The CSV text of ``hopmatch match``'s matches.csv, from the arrays of a result.
-
-    Examples
-    --------
-    >>> print(matches_table([[10, 5]], [[4, 5]], [6], [0.25]), end="")
-    left_x,left_y,right_x,right_y,disparity,distance
-    10.0,5.0,4.0,5.0,6.0,0.25
-    """
-    ml = np.asarray(matched_left, np.float32).reshape(-1, 2)
-    mr = np.asarray(matched_right, np.float32).reshape(-1, 2)
-    cols = [_f32(ml[:, 0]), _f32(ml[:, 1]), _f32(mr[:, 0]), _f32(mr[:, 1]),
-            _f32(disparities), _f32(distances)]
-    buf = io.StringIO()
-    writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(COLUMNS)
-    writer.writerows(zip(*cols))
-    return buf.getvalue()
 
 
 def complete_rows(path) -> int | None:

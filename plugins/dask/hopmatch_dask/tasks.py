@@ -16,7 +16,6 @@ import numpy as np
 
 import hopmatch
 from hopmatch.errors import HopmatchError, InvalidArgumentError
-
 from hopmatch.imageio import ImageReadError, read_image
 
 from .results import matches_table

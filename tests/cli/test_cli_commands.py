@@ -1,0 +1,189 @@
+"""The commands demo, match and detect (hopmatch.cli.commands), through the real entry point."""
+
+from __future__ import annotations
+
+import json
+import re
+from importlib.metadata import version
+
+import cv2
+import numpy as np
+import pytest
+from cli_helpers import DISPARITY, MATCH_FIELDS, assert_bad_input, files_in, printed, read_csv, run
+
+from hopmatch import DericheMoravecDetector
+
+# --------------------------------------------------------------------------------------
+# demo
+
+
+# --------------------------------------------------------------------------------------
+
+
+def test_demo(tmp_path):
+    out = tmp_path / "demo"
+    res = run("demo", "--out", out, cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert files_in(out) == ["disparity.png", "matches.csv", "matches.png", "run.json"]
+    n_matches = int(printed(res.stdout, "matches"))
+    left, right = printed(res.stdout, "keypoints").split(",")
+    assert int(left.split()[0]) > n_matches and int(right.split()[0]) > n_matches
+    correct, scored = re.match(r"(\d+) of (\d+)", printed(res.stdout, "correct@1px")).groups()
+    assert 0 <= int(correct) <= int(scored) <= n_matches
+    assert 0.0 <= float(printed(res.stdout, "precision")) <= 1.0
+    assert re.match(r"\d+ ms", printed(res.stdout, "time"))
+
+    header, rows = read_csv(out / "matches.csv")
+    assert header == MATCH_FIELDS
+    assert len(rows) == n_matches > 100
+    table = np.array(rows, dtype=np.float64)
+    np.testing.assert_allclose(table[:, 4], table[:, 0] - table[:, 2], atol=1e-3)
+    for name, width in (("matches.png", 2 * 741), ("disparity.png", 741)):
+        img = cv2.imread(str(out / name))
+        assert img is not None and img.shape == (500, width, 3), name
+    info = json.loads((out / "run.json").read_text())
+    assert info["counts"]["matches"] == n_matches
+    assert info["counts"]["correct_at_1px"] == int(correct)
+
+
+# --------------------------------------------------------------------------------------
+# match
+
+
+# --------------------------------------------------------------------------------------
+
+
+def test_match_csv(pair, tmp_path):
+    out = tmp_path / "new" / "nested" / "out"  # created with its parents
+    res = run("match", pair["left"], pair["right"], "--out", out, "--max-disparity", 12)
+    assert res.returncode == 0, res.stderr
+    assert res.stderr == ""  # no progress line when stderr is not a terminal
+    assert files_in(out) == ["disparity.png", "matches.csv", "matches.png", "run.json"]
+    header, rows = read_csv(out / "matches.csv")
+    assert header == MATCH_FIELDS
+    n = int(printed(res.stdout, "matches"))
+    assert len(rows) == n > 20
+    table = np.array(rows, dtype=np.float64)
+    assert np.median(table[:, 4]) == pytest.approx(DISPARITY, abs=0.25)
+    assert (table[:, 5] >= 0).all() and (table[:, 5] <= 1).all()
+    assert cv2.imread(str(out / "matches.png")).shape == (120, 320, 3)
+    assert cv2.imread(str(out / "disparity.png")).shape == (120, 160, 3)
+
+    info = json.loads((out / "run.json").read_text())
+    assert info["command"] == "match"
+    assert set(info["versions"]) >= {"hopmatch", "opencv", "numpy", "numba"}
+    assert info["versions"]["hopmatch"] == version("hopmatch")
+    assert info["parameters"]["given"] == {"max_disparity": 12.0}
+    assert info["parameters"]["matcher"]["max_disparity"] == 12.0
+    assert info["parameters"]["detector"]["window_size"] == DericheMoravecDetector().getWindowSize()
+    assert info["counts"]["matches"] == n
+    assert info["counts"]["keypoints_left"] > 0
+    assert {"detect_left", "detect_right", "match", "total"} <= set(info["timings_ms"])
+    assert info["inputs"]["left"]["shape"] == [120, 160]
+
+
+def test_match_json_no_draw_and_parameters(pair, tmp_path):
+    out = tmp_path / "out"
+    res = run("match", pair["left"], pair["right"], "--out", out, "--format", "json",
+              "--no-draw", "--preset", "paper", "--no-subpixel", "--window-size", 7,
+              "--max-disparity", 12, "--min-disparity", 0, "--similarity-gate", "none",
+              "--no-cross-check")
+    assert res.returncode == 0, res.stderr
+    assert files_in(out) == ["matches.json", "run.json"]
+    records = json.loads((out / "matches.json").read_text())
+    assert isinstance(records, list) and len(records) == int(printed(res.stdout, "matches"))
+    assert records and all(list(r) == MATCH_FIELDS for r in records)
+    assert np.median([r["disparity"] for r in records]) == pytest.approx(DISPARITY, abs=0.25)
+    params = json.loads((out / "run.json").read_text())["parameters"]
+    assert params["detector"]["preset"] == "paper"
+    assert params["detector"]["nms_size"] == 20  # from the preset
+    assert params["detector"]["window_size"] == 7  # explicit option wins
+    assert params["detector"]["subpixel"] is False
+    assert params["matcher"]["similarity_gate"] is None
+    assert params["matcher"]["cross_check"] is False
+    assert params["matcher"]["min_disparity"] == 0.0  # explicit option wins over the preset
+
+
+def test_match_plot_energy(pair, tmp_path):
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "out"
+    res = run("match", pair["left"], pair["right"], "--out", out, "--plot-energy",
+              "--no-draw", "--max-disparity", 12)
+    assert res.returncode == 0, res.stderr
+    assert files_in(out) == ["energy.png", "matches.csv", "run.json"]
+    assert cv2.imread(str(out / "energy.png")) is not None
+    assert json.loads((out / "run.json").read_text())["parameters"]["record_energy"] is True
+
+
+def test_match_without_matches_writes_empty_tables(tmp_path):
+    flat = tmp_path / "flat.png"
+    assert cv2.imwrite(str(flat), np.full((60, 80), 90, np.uint8))
+    for fmt in ("csv", "json"):
+        out = tmp_path / fmt
+        res = run("match", flat, flat, "--out", out, "--format", fmt, "--max-disparity", 4)
+        assert res.returncode == 0, res.stderr
+        assert printed(res.stdout, "matches") == "0"
+        if fmt == "csv":
+            assert read_csv(out / "matches.csv") == (MATCH_FIELDS, [])
+            assert cv2.imread(str(out / "disparity.png")).shape == (60, 80, 3)
+        else:
+            assert json.loads((out / "matches.json").read_text()) == []
+
+
+# --------------------------------------------------------------------------------------
+# detect
+
+
+# --------------------------------------------------------------------------------------
+
+
+def test_detect(pair, tmp_path):
+    out = tmp_path / "det"
+    res = run("detect", pair["left"], "--out", out, "--nms-size", 7)
+    assert res.returncode == 0, res.stderr
+    assert files_in(out) == ["keypoints.csv", "keypoints.png", "run.json"]
+    header, rows = read_csv(out / "keypoints.csv")
+    assert header == ["x", "y", "response", "size"]
+    assert len(rows) == int(printed(res.stdout, "keypoints")) > 10
+    table = np.array(rows, dtype=np.float64)
+    assert (table[:, 0] >= 0).all() and (table[:, 0] < 160).all()
+    assert (table[:, 1] >= 0).all() and (table[:, 1] < 120).all()
+    assert (table[:, 3] == DericheMoravecDetector().getWindowSize()).all()
+    assert cv2.imread(str(out / "keypoints.png")).shape == (120, 160, 3)
+    info = json.loads((out / "run.json").read_text())
+    assert info["parameters"]["detector"]["nms_size"] == 7
+    assert info["counts"]["keypoints"] == len(rows)
+
+
+# --------------------------------------------------------------------------------------
+# Bad images: one line, exit status 2, no traceback, no files left
+
+
+# --------------------------------------------------------------------------------------
+
+
+BAD_IMAGES = [  # (which input is bad, key of the bad file in `pair`, words of the message)
+    ("right", "missing", "no such file"),
+    ("right", "garbage", "not an image OpenCV can read"),
+    ("left", "truncated", "not an image OpenCV can read"),
+    ("right", "empty", "empty"),
+    ("left", "folder", "is a folder"),
+    ("right", "short", "height 100 differs"),
+]
+
+
+@pytest.mark.parametrize("side, key, words", BAD_IMAGES, ids=[b[1] for b in BAD_IMAGES])
+def test_bad_image(pair, tmp_path, side, key, words):
+    bad = pair.get(key, tmp_path / "missing.png")
+    left, right = (bad, pair["right"]) if side == "left" else (pair["left"], bad)
+    out = tmp_path / "out"
+    res = run("match", left, right, "--out", out)
+    assert_bad_input(res, str(bad), words)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("key", ["garbage", "folder"])
+def test_detect_bad_image(pair, tmp_path, key):
+    out = tmp_path / "out"
+    assert_bad_input(run("detect", pair[key], "--out", out), str(pair[key]))
+    assert not out.exists()
