@@ -38,13 +38,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+import stereo_calibration as calib  # noqa: E402 (the example's own calibration)
 from _common import SMOKE_PAIRS, add_smoke_option, single_thread  # noqa: E402
 
 import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
 from hopmatch.stereo import rectify  # noqa: E402
-
-import stereo_calibration as calib  # noqa: E402 (the example's own calibration)
 
 CLASSES = ("off board", "other corner", "along an edge", "same point")
 

@@ -8,19 +8,19 @@ from __future__ import annotations
 from importlib.metadata import PackageNotFoundError, version
 
 from . import errors
-from .matching import (
-    HopfieldMatcher,
-    NetworkResult,
-    StereoMatchResult,
-    hopfield_match,
-    match_stereo,
-)
 from .feature import (
     DericheMoravecDetector,
     deriche_gradient,
     gradient_windows,
     moravec_points,
     moravec_response,
+)
+from .matching import (
+    HopfieldMatcher,
+    NetworkResult,
+    StereoMatchResult,
+    hopfield_match,
+    match_stereo,
 )
 
 try:

@@ -188,7 +188,8 @@ def boolean() -> Check:
             return value
         if isinstance(value, numbers.Integral) and int(value) in (0, 1):
             return bool(value)
-        raise InvalidTypeError(f"`{name}` must be True or False, got {type(value).__name__} {value!r}")
+        raise InvalidTypeError(
+            f"`{name}` must be True or False, got {type(value).__name__} {value!r}")
 
     return Check("bool", check)
 
@@ -278,7 +279,8 @@ class Configurable:
                 out.release()
             return
         if not isinstance(fs, cv2.FileStorage):
-            raise InvalidTypeError(f"`fs` must be a path or a cv2.FileStorage, got {type(fs).__name__}")
+            raise InvalidTypeError(
+                f"`fs` must be a path or a cv2.FileStorage, got {type(fs).__name__}")
         if not fs.isOpened():
             raise InvalidArgumentError("`fs` is a cv2.FileStorage that is not open for writing")
         self._write_node(fs, node)
@@ -363,9 +365,11 @@ class Configurable:
 
     # -- Python protocols ----------------------------------------------------------------
     def __repr__(self) -> str:
+        defaults = {p.name: p.check(p.name, p.default) if p.default is not None else None
+                    for p in self.PARAMS}
         changed = ", ".join(
             f"{p.name}={self._params[p.name]!r}" for p in self.PARAMS
-            if self._params[p.name] != (p.check(p.name, p.default) if p.default is not None else None)
+            if self._params[p.name] != defaults[p.name]
         )
         return f"{type(self).__name__}({changed})"
 

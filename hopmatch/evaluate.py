@@ -183,7 +183,8 @@ def _count_matchable(
     has_gt = np.isfinite(d)
     if not has_gt.any() or right_kp.shape[0] == 0:
         return {t: 0 for t in thresholds}
-    target = np.column_stack([left_kp[has_gt, 0] - d[has_gt], left_kp[has_gt, 1]]).astype(np.float64)
+    target = np.column_stack([left_kp[has_gt, 0] - d[has_gt],
+                              left_kp[has_gt, 1]]).astype(np.float64)
     right = right_kp.astype(np.float64)
     radius = max(max(thresholds), vertical_tolerance or 0.0)
     # All (target, right) pairs within the Chebyshev radius, as arrays: the box test below
@@ -231,7 +232,7 @@ def score_matches(
         Disparity tolerances ``t`` in pixels (each > 0).
     vertical_tolerance : float, optional
         Allowed ``|yl - yr|`` in pixels (>= 0); default: the same as each ``t``.
-    right_keypoints, left_keypoints : (M, 2) float32 array_like or sequence of cv2.KeyPoint, optional
+    right_keypoints, left_keypoints : (M, 2) float32 array_like or cv2.KeyPoint sequence, optional
         All points the matcher could choose from. When both are given, ``matchable`` and
         ``recall`` are computed: a left keypoint with ground truth is matchable at ``t``
         when a right keypoint lies within ``t`` in x and the vertical tolerance in y of
@@ -272,7 +273,8 @@ def score_matches(
         )
     disparity = _as_disparity(disparity_gt)
     ts = _thresholds(thresholds)
-    vt = None if vertical_tolerance is None else as_real(vertical_tolerance, "vertical_tolerance", lo=0.0)
+    vt = (None if vertical_tolerance is None
+          else as_real(vertical_tolerance, "vertical_tolerance", lo=0.0))
     if (right_keypoints is None) != (left_keypoints is None):
         raise InvalidArgumentError(
             "recall needs both `left_keypoints` and `right_keypoints`; got only "
@@ -425,7 +427,8 @@ def error_histogram(errors, bins=(0.0, 0.5, 1.0, 2.0, 4.0, np.inf), absolute: bo
             raise InvalidTypeError(
                 f"`bins` must be an int or a sequence of edges, got {describe(bins)}"
             ) from None
-        if edges.ndim != 1 or edges.size < 2 or np.isnan(edges).any() or (np.diff(edges) <= 0).any():
+        if (edges.ndim != 1 or edges.size < 2 or np.isnan(edges).any()
+                or (np.diff(edges) <= 0).any()):
             raise InvalidArgumentError(
                 f"`bins` must be at least two strictly increasing edges, got {edges.tolist()}"
             )

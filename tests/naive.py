@@ -236,7 +236,8 @@ def epipolar_candidate_pairs(left, right, min_disparity, max_disparity, max_vert
         norm = math.hypot(a, b)
         for k in range(len(right)):
             d = left[i, 0] - right[k, 0]
-            dist = (a * float(right[k, 0]) + b * float(right[k, 1]) + c) / norm if norm else math.inf
+            num = a * float(right[k, 0]) + b * float(right[k, 1]) + c
+            dist = num / norm if norm else math.inf
             if dmin <= d <= dmax and abs(dist) <= max_vertical:
                 pairs.append((i, k))
     return pairs

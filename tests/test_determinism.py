@@ -170,7 +170,8 @@ BOUNDSCHECK_SCRIPT = textwrap.dedent("""
         (pts, pts, desc, desc, {"max_iterations": 1, "record_energy": True}),
         (pts, pts, desc, desc, {"preset": "paper", "max_candidates": 2}),
         (pts, pts, bits, bits, {"similarity_gate": None}),
-        (pts, pts, desc, desc, {"fundamental_matrix": np.array([[0, 0, 0], [0, 0, -1], [0, 1, 0.0]])}),
+        (pts, pts, desc, desc,
+         {"fundamental_matrix": np.array([[0, 0, 0], [0, 0, -1], [0, 1, 0.0]])}),
         (np.float32([[0, 0], [2**20, 2**20]]), np.float32([[0, 0], [2**20, 2**20]]),
          desc[:2], desc[:2], {"neighbour_width": 0.0}),
     ]

@@ -67,7 +67,8 @@ def test_page_is_built(site, page):
 
 
 API_OBJECTS = {
-    "api.html": ["hopmatch.DericheMoravecDetector", "hopmatch.DericheMoravecDetector.detectAndCompute",
+    "api.html": ["hopmatch.DericheMoravecDetector",
+                 "hopmatch.DericheMoravecDetector.detectAndCompute",
                  "hopmatch.HopfieldMatcher", "hopmatch.HopfieldMatcher.setPairInfo",
                  "hopmatch.HopfieldMatcher.knnMatch", "hopmatch.match_stereo",
                  "hopmatch.hopfield_match", "hopmatch.StereoMatchResult",

@@ -292,7 +292,8 @@ class TestScoreMatchesErrors:
             score_matches("abc", grid_points(3), gt_map())
 
     def test_disparity_shape(self):
-        with pytest.raises(InvalidArgumentError, match=r"`disparity_gt` must be a 2-dim.*\(4, 4, 3\)"):
+        with pytest.raises(InvalidArgumentError,
+                           match=r"`disparity_gt` must be a 2-dim.*\(4, 4, 3\)"):
             score_matches(grid_points(3), grid_points(3), np.zeros((4, 4, 3)))
 
     def test_disparity_type(self):
@@ -317,7 +318,8 @@ class TestScoreMatchesErrors:
             score_matches(grid_points(3), grid_points(3), gt_map(), thresholds=(True,))
 
     def test_bad_vertical_tolerance(self):
-        with pytest.raises(InvalidArgumentError, match=r"`vertical_tolerance` must be a finite number in \[0.0, inf\]"):
+        with pytest.raises(InvalidArgumentError,
+                           match=r"`vertical_tolerance` must be a finite number in \[0.0, inf\]"):
             score_matches(grid_points(3), grid_points(3), gt_map(), vertical_tolerance=-1)
 
     def test_only_one_keypoint_set(self):

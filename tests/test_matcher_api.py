@@ -10,7 +10,12 @@ import pytest
 
 import hopmatch
 from hopmatch import DericheMoravecDetector, HopfieldMatcher
-from hopmatch.errors import BudgetExceededError, InvalidArgumentError, InvalidTypeError, PairInfoError
+from hopmatch.errors import (
+    BudgetExceededError,
+    InvalidArgumentError,
+    InvalidTypeError,
+    PairInfoError,
+)
 
 SHIFT = 7
 

@@ -3,10 +3,10 @@ loop references of ``tests/naive.py``."""
 
 from __future__ import annotations
 
+import naive
 import numpy as np
 import pytest
 
-import naive
 from hopmatch._kernels import moravec as _k
 from hopmatch.errors import InvalidArgumentError, InvalidTypeError
 from hopmatch.feature import gradient_windows, moravec_points, moravec_response

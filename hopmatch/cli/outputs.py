@@ -55,19 +55,22 @@ class Outputs:
             self.path.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             self._remove_created(missing)
-            raise CLIError(self.label, f"cannot create the folder: {imageio.os_reason(exc)}") from None
+            raise CLIError(self.label,
+                           f"cannot create the folder: {imageio.os_reason(exc)}") from None
         self.created = missing
         try:
             os.unlink(write_temp(self.path, "write-test", b""))
         except OSError as exc:
             self.abort()
-            raise CLIError(self.label, f"cannot write in the folder: {imageio.os_reason(exc)}") from None
+            raise CLIError(self.label,
+                           f"cannot write in the folder: {imageio.os_reason(exc)}") from None
 
     def add(self, name: str, data: bytes) -> None:
         try:
             tmp = write_temp(self.path, name, data)
         except OSError as exc:
-            raise CLIError(str(self.path / name), f"cannot write: {imageio.os_reason(exc)}") from None
+            raise CLIError(str(self.path / name),
+                           f"cannot write: {imageio.os_reason(exc)}") from None
         self.staged.append((tmp, self.path / name))
         self.names.append(name)
 
@@ -87,8 +90,8 @@ class Outputs:
             for final in done:
                 _unlink(final)
             self.abort()
-            raise CLIError(self.label, f"cannot rename the finished files: {imageio.os_reason(exc)}") \
-                from None
+            raise CLIError(self.label, "cannot rename the finished files: "
+                                       f"{imageio.os_reason(exc)}") from None
         self.staged = []
 
     def abort(self) -> None:

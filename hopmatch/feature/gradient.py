@@ -46,7 +46,8 @@ def deriche_gradient(image, alpha: float = 1.0, omega: float = 0.001) -> np.ndar
     gray = as_gray_image(image)
     alpha = real(0.0, lo_open=True)("alpha", alpha)
     omega = real(0.0, lo_open=True)("omega", omega)
-    return check_finite_gradient(deriche_magnitude(gray, alpha, omega), gray, alpha=alpha, omega=omega)
+    return check_finite_gradient(deriche_magnitude(gray, alpha, omega), gray, alpha=alpha,
+                                 omega=omega)
 
 
 def check_finite_gradient(g: np.ndarray, gray: np.ndarray, name: str = "image", *,

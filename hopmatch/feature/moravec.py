@@ -17,7 +17,8 @@ def _as_float_image(image, name="image") -> np.ndarray:
     if not isinstance(image, np.ndarray):
         raise InvalidTypeError(f"`{name}` must be a numpy array, got {type(image).__name__}")
     if image.ndim != 2:
-        raise InvalidArgumentError(f"`{name}` must be a 2-dimensional array, got shape {image.shape}")
+        raise InvalidArgumentError(
+            f"`{name}` must be a 2-dimensional array, got shape {image.shape}")
     if image.dtype == np.bool_ or not np.issubdtype(image.dtype, np.number):
         raise InvalidTypeError(f"`{name}` must be a numeric array, got dtype {image.dtype}")
     out = np.ascontiguousarray(image, dtype=np.float32)

@@ -8,6 +8,7 @@ from .._kernels import candidates as _kc
 from ..errors import BudgetExceededError
 from .similarity import EPS
 
+
 def row_span_limit(n: int) -> int:
     """Largest row span the candidate search counts rows over for n points (beyond it, it
     sorts them: ``_kc.row_order``)."""

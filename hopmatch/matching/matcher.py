@@ -9,15 +9,14 @@ import cv2
 import numpy as np
 
 from .._params import Configurable, state_params
-from .._validate import as_int
-from ..errors import InvalidArgumentError, InvalidTypeError, PairInfoError
-from .network import NetworkResult, PairInfo, hopfield_match, match_pair
-from .params import MATCHER_PARAMS, PRESETS, MatcherConfig, check_disparity_order
-from .similarity import match_distance
 
 # Names that lived in this module before the matching layer was split, kept importable
 # from here: their homes are budget.py, candidates.py, diagnostics.py and _validate.py.
-from .._validate import as_fundamental_matrix  # noqa: E402, F401
+from .._validate import (
+    as_fundamental_matrix,  # noqa: E402, F401
+    as_int,
+)
+from ..errors import InvalidArgumentError, InvalidTypeError, PairInfoError
 from .budget import (  # noqa: E402, F401
     MAX_ENERGY_TRACE,
     neighbour_pairs_bound,
@@ -33,6 +32,9 @@ from .diagnostics import (  # noqa: E402, F401
     RECTIFICATION_SUSPICIOUS,
     rectification_evidence,
 )
+from .network import NetworkResult, PairInfo, hopfield_match, match_pair
+from .params import MATCHER_PARAMS, PRESETS, MatcherConfig, check_disparity_order
+from .similarity import match_distance
 
 __all__ = ["HopfieldMatcher", "hopfield_match", "ranked_candidates"]
 

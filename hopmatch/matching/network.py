@@ -28,16 +28,26 @@ from .._validate import (
 )
 from ..errors import InvalidArgumentError, PairInfoError
 from .budget import check_energy_trace, check_neighbour_budget, interaction_capacity
-from .candidates import candidate_pairs, resolve_max_disparity, vertical_offsets
-from .diagnostics import warn_geometry, warn_if_unrectified
-from .disambiguate import disambiguate, vertically_consistent
-from .params import MatcherConfig, check_disparity_order, matcher_config
-from .similarity import match_distance, shift_minimal, similarity_distance, window_contrasts
 
 # Names that lived in this module before the matching layer was split, kept importable
 # from here: their homes are candidates.py, similarity.py and budget.py.
-from .candidates import left_visit_order, right_band_index  # noqa: E402, F401
-from .similarity import WINDOW_MEAN_TOL  # noqa: E402, F401
+from .candidates import (  # noqa: E402, F401
+    candidate_pairs,
+    left_visit_order,
+    resolve_max_disparity,
+    right_band_index,
+    vertical_offsets,
+)
+from .diagnostics import warn_geometry, warn_if_unrectified
+from .disambiguate import disambiguate, vertically_consistent
+from .params import MatcherConfig, check_disparity_order, matcher_config
+from .similarity import (
+    WINDOW_MEAN_TOL,  # noqa: E402, F401
+    match_distance,
+    shift_minimal,
+    similarity_distance,
+    window_contrasts,
+)
 
 
 @dataclass(frozen=True)

@@ -3,14 +3,14 @@ window) against the brute-force pairs of ``tests/naive.py``."""
 
 from __future__ import annotations
 
+import naive
 import numpy as np
 import pytest
+from network_problems import make_problem
 
-import naive
 from hopmatch._kernels import candidates as _k
 from hopmatch.errors import BudgetExceededError
 from hopmatch.matching.network import candidate_pairs
-from network_problems import make_problem
 
 
 class TestCandidates:

@@ -3,11 +3,9 @@ dense network of ``tests/naive.py``: the stored pairs, their weights, their coun
 
 from __future__ import annotations
 
+import naive
 import numpy as np
 import pytest
-
-import naive
-from hopmatch._kernels import interactions as _k
 from network_problems import (
     CONFIGS,
     PROBLEMS,
@@ -18,6 +16,8 @@ from network_problems import (
     sparse_t,
     stored_weights,
 )
+
+from hopmatch._kernels import interactions as _k
 
 
 @pytest.fixture(scope="module", params=sorted(CONFIGS))

@@ -3,12 +3,12 @@ window) against the brute-force lists of ``tests/naive.py``."""
 
 from __future__ import annotations
 
+import naive
 import numpy as np
 import pytest
-
-import naive
-from hopmatch._kernels import neighbours as _k
 from network_problems import make_problem
+
+from hopmatch._kernels import neighbours as _k
 
 
 class TestNeighbours:

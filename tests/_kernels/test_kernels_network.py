@@ -3,14 +3,11 @@ of ``tests/naive.py``: energy, local fields, the dynamics and its visit order.""
 
 from __future__ import annotations
 
+import naive
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
-import naive
-from hopmatch._kernels import network as _k
-from hopmatch.matching.network import run_hopfield_network
 from network_problems import (
     CONFIGS,
     PROBLEMS,
@@ -20,6 +17,9 @@ from network_problems import (
     params,
     python_version,
 )
+
+from hopmatch._kernels import network as _k
+from hopmatch.matching.network import run_hopfield_network
 
 #: SplitMix64 (``splitmix64``) wraps its uint64 arithmetic by design; run as plain Python
 #: (``NUMBA_DISABLE_JIT=1``), NumPy's scalars warn each time it does.

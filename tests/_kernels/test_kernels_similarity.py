@@ -3,14 +3,14 @@ sums and the references of ``tests/naive.py``."""
 
 from __future__ import annotations
 
+import naive
 import numpy as np
 import pytest
+from network_problems import make_problem
 
-import naive
 from hopmatch._kernels import similarity as _k
 from hopmatch.errors import BudgetExceededError
 from hopmatch.matching.network import candidate_pairs, shift_minimal, similarity_distance
-from network_problems import make_problem
 
 
 class TestSimilarity:

@@ -3,10 +3,11 @@
 
 from __future__ import annotations
 
+import naive
 import numpy as np
 import pytest
+from network_problems import CONFIGS, DEFAULTS, make_problem, params
 
-import naive
 from hopmatch.matching.disambiguate import (
     disambiguate,
     singular_choice,
@@ -14,7 +15,6 @@ from hopmatch.matching.disambiguate import (
 )
 from hopmatch.matching.network import run_hopfield_network, vertical_offsets
 from hopmatch.matching.params import PRESETS
-from network_problems import CONFIGS, DEFAULTS, make_problem, params
 
 
 def _random_active(rng, integer_dy):

@@ -4,10 +4,10 @@ have: the interactions it stores and the ``max_interactions`` budget."""
 from __future__ import annotations
 
 import pytest
+from network_problems import brute_force_interactions, make_problem, params
 
 from hopmatch.errors import BudgetExceededError
 from hopmatch.matching.network import run_hopfield_network
-from network_problems import brute_force_interactions, make_problem, params
 
 
 class TestSparsity:

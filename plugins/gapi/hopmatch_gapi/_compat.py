@@ -5,8 +5,8 @@ from __future__ import annotations
 import cv2
 
 #: What to install when the check fails.
-INSTALL_HINT = "pip install 'opencv-contrib-python-headless>=4.8,<5'  (or: pip install 'hopmatch[all]' " \
-               "with the constraints in .ci/constraints.txt)"
+INSTALL_HINT = ("pip install 'opencv-contrib-python-headless>=4.8,<5'  (or: pip install "
+                "'hopmatch[all]' with the constraints in .ci/constraints.txt)")
 
 
 def missing_gapi_features() -> list[str]:
