@@ -26,7 +26,7 @@ except ImportError as exc:  # only the "no G-API custom ops" error skips; others
         raise
     pytest.skip(str(exc), allow_module_level=True)
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "gapi_streaming.py"
 
 
