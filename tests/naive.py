@@ -260,7 +260,7 @@ def neighbours(points, width, height):
 
 def similarity(a, b, eps=1e-6):
     """Normalised eq. 7 distance between two descriptor rows (see
-    ``hopmatch.matching.network.similarity_distance``): for uint8 rows the fraction of
+    ``hopmatch.matching.similarity.similarity_distance``): for uint8 rows the fraction of
     differing bits; for float rows ``mean|a - b|`` over the mean of ``mean|a|`` and
     ``mean|b|``."""
     if a.dtype == np.uint8:
