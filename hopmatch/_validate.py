@@ -325,18 +325,25 @@ def as_int(value, name: str, *, lo: int | None = None, hi: int | None = None,
 # -- matrices --------------------------------------------------------------------------------
 
 
-def as_array(value, name: str) -> np.ndarray:
-    """``value`` as a new float64 array of finite real numbers (any shape)."""
-    if value is None or isinstance(value, (str, bytes)):
-        raise InvalidTypeError(f"`{name}` must be a numeric array, got {describe(value)}")
+def as_array(value, name: str, what: str = "a numeric array", *, finite: bool = True,
+             refuse_bool: bool = False) -> np.ndarray:
+    """``value`` as a new float64 array of real numbers (any shape), finite unless
+    ``finite=False`` (for inputs where NaN means "none").
+
+    None, strings, bytes (and a bool when ``refuse_bool``) raise :class:`InvalidTypeError`
+    saying ``name`` must be ``what``; so do arrays of bools, complex numbers or objects.
+    """
+    if value is None or isinstance(value, (str, bytes)) or (refuse_bool
+                                                            and isinstance(value, bool)):
+        raise InvalidTypeError(f"`{name}` must be {what}, got {describe(value)}")
     try:
         arr = np.asarray(value)
     except (TypeError, ValueError) as exc:
-        raise InvalidTypeError(f"`{name}` must be a numeric array: {exc}") from None
+        raise InvalidTypeError(f"`{name}` must be {what}: {exc}") from None
     if arr.dtype == np.bool_ or not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
         raise InvalidTypeError(f"`{name}` must hold real numbers, got dtype {arr.dtype}")
     arr = np.array(arr, dtype=np.float64)  # always a copy: callers' arrays stay theirs
-    if not np.isfinite(arr).all():
+    if finite and not np.isfinite(arr).all():
         raise InvalidArgumentError(f"`{name}` contains NaN or infinite values")
     return arr
 

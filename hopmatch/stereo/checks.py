@@ -130,23 +130,9 @@ def as_point_pair(left_pts, right_pts, left_name: str = "left_pts",
 
 def as_real_array(value, name: str, what: str = "a numeric array", *,
                   refuse_bool: bool = False) -> np.ndarray:
-    """``value`` as a new float64 array of any shape; NaN and infinities are kept.
-
-    The non-finite counterpart of :func:`hopmatch._validate.as_array`, for inputs where NaN
-    means "none". None, strings, bytes (and a bool when ``refuse_bool``) raise
-    :class:`InvalidTypeError` saying ``name`` must be ``what``; so do arrays of bools,
-    complex numbers or objects.
-    """
-    if value is None or isinstance(value, (str, bytes)) or (refuse_bool and
-                                                            isinstance(value, bool)):
-        raise InvalidTypeError(f"`{name}` must be {what}, got {describe(value)}")
-    try:
-        arr = np.asarray(value)
-    except (TypeError, ValueError) as exc:
-        raise InvalidTypeError(f"`{name}` must be {what}: {exc}") from None
-    if arr.dtype == np.bool_ or not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
-        raise InvalidTypeError(f"`{name}` must hold real numbers, got dtype {arr.dtype}")
-    return arr.astype(np.float64)
+    """``value`` as a new float64 array of any shape, NaN and infinities kept
+    (:func:`hopmatch._validate.as_array` with ``finite=False``)."""
+    return as_array(value, name, what, finite=False, refuse_bool=refuse_bool)
 
 
 def as_values(values, name: str, n: int) -> np.ndarray:
