@@ -43,6 +43,11 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "active neurons (the paper); 'all' then also drops every kept pair whose vertical "
         "disparity is vertical_threshold or more from the median of the kept pairs "
         "(disambiguate.vertically_consistent; docs/parameters.md)")),
+    Param("vertical_model", "plane", choice("median", "plane"), doc=(
+        "the vertical disparity that vertical_check='all', the guided pass and the "
+        "refinement measure from: 'median', one value for the whole pair, or 'plane', a "
+        "robust plane a + b x + c y through the kept pairs (hopmatch.matching.vertical; "
+        "the median when fewer than 50 pairs)")),
     # beyond the paper: reject matches whose windows align better one pixel off
     Param("shift_check", True, boolean()),
     # resource budget
@@ -73,6 +78,7 @@ PRESETS: dict[str, dict] = {
         "vertical_threshold": 1.0,
         "vertical_check": "multiple",
         "shift_check": False,
+        "vertical_model": "median",
     },
 }
 
