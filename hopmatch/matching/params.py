@@ -50,6 +50,20 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "the median when fewer than 50 pairs)")),
     # beyond the paper: reject matches whose windows align better one pixel off
     Param("shift_check", True, boolean()),
+    # beyond the paper: what match_stereo adds to the network's matches (it needs the
+    # images, so HopfieldMatcher.match on descriptors alone does not do it)
+    Param("guided", True, boolean(), doc=(
+        "match_stereo's guided second pass: left points the network left unmatched get a "
+        "disparity from a row search near the one their matched neighbours support, kept "
+        "only when it passes the network's own field test, a uniqueness margin and a "
+        "left-right check (hopmatch.matching.guided; result.passes == 1)")),
+    Param("guided_margin", 0.1, real(0.0), doc=(
+        "uniqueness margin of the guided pass: the ZNCC of the peak must exceed the best "
+        "one at least 2 px away (within +-4 px) by this much")),
+    Param("refine", True, boolean(), doc=(
+        "match_stereo's sub-pixel refinement: every match's right x moved to the peak of "
+        "the ZNCC of 7 x 7 grey windows along the row, by re-centred parabola fits "
+        "(hopmatch.matching.refine)")),
     # resource budget
     Param("max_neurons", 5_000_000, integer(1)),
     Param("max_interactions", 100_000_000, integer(1)),
@@ -78,6 +92,8 @@ PRESETS: dict[str, dict] = {
         "vertical_threshold": 1.0,
         "vertical_check": "multiple",
         "shift_check": False,
+        "guided": False,
+        "refine": False,
         "vertical_model": "median",
     },
 }

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 
+import hopmatch
 from hopmatch.matching.disambiguate import vertically_consistent
 from hopmatch.matching.vertical import PLANE_MIN_MATCHES, RowOffset, fit_row_offset
 
@@ -52,3 +54,37 @@ def test_collinear_points_give_the_median():
     pts = np.c_[np.arange(100.0), np.zeros(100)]
     model = fit_row_offset(pts, np.full(100, 0.4))
     assert model.b == 0.0 and model.c == 0.0 and model.a == pytest.approx(0.4)
+
+
+def test_match_stereo_measures_the_rotation_of_a_pair():
+    """A pair whose right image is rotated 0.3 degree: the model match_stereo searched
+    along has the rotation's slope, and the guided and refined matches follow it."""
+    rng = np.random.default_rng(2)
+    tex = cv2.GaussianBlur(rng.normal(size=(240, 480)), (0, 0), 1.2)
+    left = np.clip((tex - tex.min()) / np.ptp(tex) * 220 + 15, 0, 255).astype(np.uint8)
+    m = cv2.getRotationMatrix2D((239.5, 119.5), -0.3, 1.0)  # cv2: positive = anticlockwise
+    m[0, 2] -= 8.0  # disparity 8
+    right = cv2.warpAffine(left, m, (480, 240), flags=cv2.INTER_CUBIC,
+                           borderMode=cv2.BORDER_REFLECT)
+    res = hopmatch.match_stereo(left, right, max_disparity=16, max_vertical=2.0)
+    slope = res.row_offset.b  # d(yl - yr)/dx
+    assert slope == pytest.approx(-math.sin(math.radians(0.3)), abs=5e-4)
+    ml, mr = res.matched_left, res.matched_right
+    hom = np.c_[ml, np.ones(len(ml))] @ m.T  # where each left point lands in the right
+    assert np.median(np.abs(hom[:, 1] - mr[:, 1])) < 0.1
+
+
+def test_a_pair_rotated_by_degrees_is_not_searched_along_rows():
+    """Past about a degree the offset is no rectification residual: match_stereo keeps the
+    network's matches only (rectify the pair or pass its fundamental matrix)."""
+    rng = np.random.default_rng(2)
+    tex = cv2.GaussianBlur(rng.normal(size=(240, 480)), (0, 0), 1.2)
+    left = np.clip((tex - tex.min()) / np.ptp(tex) * 220 + 15, 0, 255).astype(np.uint8)
+    m = cv2.getRotationMatrix2D((239.5, 119.5), -3.0, 1.0)
+    m[0, 2] -= 8.0
+    right = cv2.warpAffine(left, m, (480, 240), flags=cv2.INTER_CUBIC,
+                           borderMode=cv2.BORDER_REFLECT)
+    res = hopmatch.match_stereo(left, right, max_disparity=16, max_vertical=2.0)
+    assert res.row_offset is not None and not res.row_offset.is_residual()
+    assert res.guided is None and res.refinement is None
+    np.testing.assert_array_equal(res.query_idx, res.network.query_idx)
