@@ -318,3 +318,17 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
         query_idx=query_idx, train_idx=train_idx, distances=distances.astype(np.float32),
         timings=timings, match_timings=match_timings, passes=passes,
         n_detected_right=n_right, guided=gm, refinement=refinement, row_offset=offset)
+
+
+def warm_up_beyond_network() -> None:
+    """Compile (or load from the cache) the kernels of the guided pass and the refinement
+    on tiny inputs of the dtypes :func:`match_stereo` gives them (``hopmatch.warmup``)."""
+    rng = np.random.default_rng(0)
+    g = np.ascontiguousarray(rng.random((40, 64)) * 100, dtype=np.float32)
+    xs, ys = np.meshgrid(np.arange(20.0, 44.0, 4.0), np.arange(15.0, 26.0, 5.0))
+    pts = np.c_[xs.ravel(), ys.ravel()].astype(np.float32)
+    desc = DericheMoravecDetector().describe_points(g, pts)[1]
+    matched = np.arange(1, len(pts), dtype=np.int32)  # all but the first: it has neighbours
+    guided_pass(pts, pts, desc, desc, g, g, matched, matched, np.zeros(len(pts)),
+                matcher_config({}))
+    refine_disparities(g, g, pts, pts[:, 0], pts[:, 1])
