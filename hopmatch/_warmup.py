@@ -12,6 +12,7 @@ def warmup() -> float:
     from .feature.detector import DericheMoravecDetector
     from .matching.budget import neighbour_pairs_bound
     from .matching.network import hopfield_match
+    from .matching.stereo_match import warm_up_beyond_network
 
     t0 = time.perf_counter()
     rng = np.random.default_rng(0)
@@ -29,4 +30,5 @@ def warmup() -> float:
     _ki.count_interactions(no_pairs, no_pairs, no_offsets, no_offsets, no_pairs)
     binary = (rng.random((len(pts), 32)) * 255).astype(np.uint8)
     hopfield_match(pts, pts, binary, binary, max_disparity=4.0)
+    warm_up_beyond_network()  # the guided pass and the refinement of match_stereo
     return time.perf_counter() - t0

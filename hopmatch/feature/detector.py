@@ -142,7 +142,7 @@ class DericheMoravecDetector(Configurable):
         return keep, gradient_windows(g, np.compress(keep, points, axis=0), size)
 
     def detect_and_describe(self, image, mask=None, *, name: str = "image",
-                            mask_name: str = "mask"):
+                            mask_name: str = "mask", keep_gray: bool = False):
         """Detect and describe ``image`` with arrays only (what :meth:`detectAndCompute`
         does, without ``cv2.KeyPoint`` objects).
 
@@ -156,11 +156,18 @@ class DericheMoravecDetector(Configurable):
             One row per point (eqs. 8-9).
         gradient : (H, W) float32 ndarray
             The feature image G they were measured on.
+        gray : (H, W) ndarray
+            Only with ``keep_gray=True``: the checked grey image G was computed from (as
+            :func:`~hopmatch._validate.as_gray_image` returns it; it may be ``image``
+            itself), for steps that work on grey levels (the sub-pixel refinement).
         """
-        g = self.feature_image(image, name)
+        p = self._params
+        gray = as_gray_image(image, name, max_pixels=p["max_pixels"])
+        g = feature_image(gray, p["on"], p["alpha"], p["omega"], name)
         pts, resp = self.points_on(g, mask, mask_name)
         keep, desc = self.describe_points(g, pts)
-        return np.compress(keep, pts, axis=0), resp[keep], desc, g
+        out = (np.compress(keep, pts, axis=0), resp[keep], desc, g)
+        return out + (gray,) if keep_gray else out
 
     def keypoints(self, points: np.ndarray, responses: np.ndarray) -> tuple:
         """``cv2.KeyPoint`` objects of (x, y) ``points`` with these ``responses``, as

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .vertical import fit_row_offset
+
 
 def singular_choice(group: np.ndarray, dy: np.ndarray, score: np.ndarray,
                     threshold: float) -> np.ndarray:
@@ -97,7 +99,7 @@ def disambiguate(ni: np.ndarray, nk: np.ndarray, active: np.ndarray, dy: np.ndar
     return act[from_left & from_right]
 
 
-def vertically_consistent(dy: np.ndarray, threshold: float) -> np.ndarray:
+def vertically_consistent(dy: np.ndarray, threshold: float, points=None) -> np.ndarray:
     """Section 4's vertical test applied to every kept pair (``vertical_check="all"``).
 
     Section 4 compares only the *multiple* pairs with the mean vertical disparity ``Ybar``
@@ -116,12 +118,19 @@ def vertically_consistent(dy: np.ndarray, threshold: float) -> np.ndarray:
         to the epipolar line).
     threshold : float
         The vertical-disparity tolerance (``vertical_threshold``).
+    points : (M, 2) ndarray, optional
+        The left point of each pair. When given, ``Ybar`` is not one number but the robust
+        plane ``a + b x + c y`` through the pairs' ``dy``
+        (:func:`~hopmatch.matching.vertical.fit_row_offset`, ``vertical_model="plane"``):
+        a rectification that leaves a small rotation or scale makes the vertical
+        disparity vary across the image, and a single median then rejects correct pairs
+        at the sides. With fewer pairs than the plane needs, the median is used.
 
     Returns
     -------
     (M,) bool ndarray
-        True for the pairs within ``threshold`` of the median (a pair with a non-finite
-        ``dy`` is never within it).
+        True for the pairs within ``threshold`` of the median (or plane); a pair with a
+        non-finite ``dy`` is never within it.
 
     Examples
     --------
@@ -132,4 +141,6 @@ def vertically_consistent(dy: np.ndarray, threshold: float) -> np.ndarray:
     dy = np.asarray(dy, dtype=np.float64)
     if len(dy) == 0:
         return np.zeros(0, dtype=bool)
+    if points is not None:
+        return np.abs(dy - fit_row_offset(points, dy).at(points)) < threshold
     return np.abs(dy - np.median(dy)) < threshold

@@ -63,6 +63,15 @@ class HopfieldMatcher(Configurable):
     Parameters are keyword arguments (see ``docs/parameters.md``), each with a
     ``getX``/``setX`` accessor; ``preset="paper"`` gives the paper's section 4 settings.
 
+    The steps after the network that need the images, the guided second pass
+    (``guided``) and the sub-pixel refinement (``refine``), do not run in :meth:`match`,
+    which sees descriptors only. To get them with this matcher's parameters, pass it to
+    :func:`~hopmatch.match_stereo` with the images: ``res = match_stereo(left, right,
+    matcher=m)``; ``res.matches`` (cv2.DMatch), ``res.keypoints_left`` and
+    ``res.keypoints_right`` (the detected right keypoints, then one per guided match at its
+    sub-pixel position) then work with ``cv2.drawMatches`` and ``cv2.triangulatePoints``
+    as the network's matches do, and ``res.passes`` says which pass found each match.
+
     Resource budgets: ``max_neurons`` (candidate pairs) and ``max_interactions`` (stored
     interactions, and the neighbour lists they are built from) are checked before the
     network is allocated, raising :class:`~hopmatch.errors.BudgetExceededError`.

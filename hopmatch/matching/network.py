@@ -207,7 +207,8 @@ def run_hopfield_network(left, right, desc_l, desc_r, config: MatcherConfig, *, 
     else:
         chosen = np.flatnonzero(state)
     if c.vertical_check == "all":
-        chosen = chosen[vertically_consistent(dy[chosen], c.vertical_threshold)]
+        points = left[ni[chosen]] if c.vertical_model == "plane" else None
+        chosen = chosen[vertically_consistent(dy[chosen], c.vertical_threshold, points)]
     if c.shift_check:
         chosen = chosen[shift_minimal(desc_l, desc_r, ni[chosen], nk[chosen])]
     dist = match_distance(u[chosen]).astype(np.float32)

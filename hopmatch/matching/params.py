@@ -43,8 +43,27 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "active neurons (the paper); 'all' then also drops every kept pair whose vertical "
         "disparity is vertical_threshold or more from the median of the kept pairs "
         "(disambiguate.vertically_consistent; docs/parameters.md)")),
+    Param("vertical_model", "plane", choice("median", "plane"), doc=(
+        "the vertical disparity that vertical_check='all', the guided pass and the "
+        "refinement measure from: 'median', one value for the whole pair, or 'plane', a "
+        "robust plane a + b x + c y through the kept pairs (hopmatch.matching.vertical; "
+        "the median when fewer than 50 pairs)")),
     # beyond the paper: reject matches whose windows align better one pixel off
     Param("shift_check", True, boolean()),
+    # beyond the paper: what match_stereo adds to the network's matches (it needs the
+    # images, so HopfieldMatcher.match on descriptors alone does not do it)
+    Param("guided", True, boolean(), doc=(
+        "match_stereo's guided second pass: left points the network left unmatched get a "
+        "disparity from a row search near the one their matched neighbours support, kept "
+        "only when it passes the network's own field test, a uniqueness margin and a "
+        "left-right check (hopmatch.matching.guided; result.passes == 1)")),
+    Param("guided_margin", 0.1, real(0.0), doc=(
+        "uniqueness margin of the guided pass: the ZNCC of the peak must exceed the best "
+        "one at least 2 px away (within +-4 px) by this much")),
+    Param("refine", True, boolean(), doc=(
+        "match_stereo's sub-pixel refinement: every match's right x moved to the peak of "
+        "the ZNCC of 7 x 7 grey windows along the row, by re-centred parabola fits "
+        "(hopmatch.matching.refine)")),
     # resource budget
     Param("max_neurons", 5_000_000, integer(1)),
     Param("max_interactions", 100_000_000, integer(1)),
@@ -73,6 +92,9 @@ PRESETS: dict[str, dict] = {
         "vertical_threshold": 1.0,
         "vertical_check": "multiple",
         "shift_check": False,
+        "guided": False,
+        "refine": False,
+        "vertical_model": "median",
     },
 }
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -13,9 +14,17 @@ from .._validate import as_fundamental_matrix, check_coordinate_range
 from .._warnings import warn
 from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
+from .guided import GuidedMatches, guided_pass
 from .matcher import HopfieldMatcher
 from .network import NetworkResult, PairInfo, match_pair
-from .params import matcher_config
+from .params import MatcherConfig, matcher_config
+from .refine import Refinement, refine_disparities
+from .vertical import RowOffset, fit_row_offset, median_offset
+
+#: ``StereoMatchResult.passes`` of a match found by the network.
+PASS_NETWORK = 0
+#: ``StereoMatchResult.passes`` of a match found by the guided second pass.
+PASS_GUIDED = 1
 
 DETECTOR_NAMES = frozenset(p.name for p in DericheMoravecDetector.PARAMS)
 MATCHER_NAMES = frozenset(p.name for p in HopfieldMatcher.PARAMS)
@@ -52,16 +61,38 @@ class StereoMatchResult:
 
     Attributes
     ----------
-    points_left, points_right : (K, 2) float32 ndarrays
-        All detected (and described) points, (x, y).
+    points_left : (Nl, 2) float32 ndarray
+        All detected (and described) left points, (x, y).
+    points_right : (Nr + K, 2) float32 ndarray
+        The ``n_detected_right`` detected right points, then one sub-pixel right point per
+        guided match (K of them). With ``refine``, a detected point that a match uses is
+        at its refined position (``network.train_idx`` still indexes the same rows).
     query_idx, train_idx : (M,) int32 ndarrays
-        Matches as indices into ``points_left`` / ``points_right``.
+        Matches as indices into ``points_left`` / ``points_right``: the network's first
+        (in its order, ``network.query_idx``), then the guided ones.
     distances : (M,) float32 ndarray
-        ``DMatch.distance`` of each match (see :class:`HopfieldMatcher`).
+        ``DMatch.distance`` of each match: ``1 / (1 + exp(u))``, u the match's local field
+        (see :class:`HopfieldMatcher`); for a guided match, the field of the guided pair
+        among its matched neighbours.
     network : NetworkResult
-        Everything the network computed (fields, energy, energy trace...).
+        Everything the network computed (fields, energy, energy trace...), unrefined.
     timings : dict
-        Seconds spent in ``detect_left``, ``detect_right``, ``match``.
+        Seconds spent in ``detect_left``, ``detect_right`` and ``match`` (the network and
+        the steps after it).
+    passes : (M,) uint8 ndarray
+        Which pass found each match: :data:`PASS_NETWORK` (0) or :data:`PASS_GUIDED` (1).
+    n_detected_right : int
+        How many rows of ``points_right`` are detected points (the rest are guided).
+    guided : GuidedMatches or None
+        What the guided pass found (None when it did not run).
+    refinement : Refinement or None
+        The refinement of each match, in match order (None when it did not run); a match
+        is moved only where ``refinement.ok``.
+    row_offset : RowOffset or None
+        The vertical offset ``yl - yr`` the guided pass and the refinement searched along.
+    match_timings : dict
+        How ``timings["match"]`` splits: seconds in the ``network``, the ``guided`` pass
+        and the ``refine`` step.
     """
 
     points_left: np.ndarray
@@ -74,6 +105,18 @@ class StereoMatchResult:
     network: NetworkResult
     keypoint_size: float
     timings: dict = field(default_factory=dict)
+    passes: np.ndarray | None = None
+    n_detected_right: int | None = None
+    guided: GuidedMatches | None = None
+    refinement: Refinement | None = None
+    row_offset: RowOffset | None = None
+    match_timings: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.passes is None:
+            self.passes = np.zeros(len(self.query_idx), dtype=np.uint8)
+        if self.n_detected_right is None:
+            self.n_detected_right = len(self.points_right)
 
     @property
     def matched_left(self) -> np.ndarray:
@@ -138,7 +181,13 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     -------
     StereoMatchResult
         ``result.network.config`` holds the matcher parameters used (``max_disparity``
-        resolved).
+        resolved). On a rectified pair (no ``fundamental_matrix``, images of one size) two
+        steps beyond the paper follow the network, each with its parameter
+        (docs/method.md): ``guided`` appends matches for left points the network left
+        unmatched (``result.passes == 1``, right points appended to ``points_right``),
+        and ``refine`` moves every match's right point to its sub-pixel position on the
+        row the vertical model gives (``result.refinement``). ``preset="paper"`` turns
+        both off.
 
     Examples
     --------
@@ -147,8 +196,10 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     >>> left = (rng.random((120, 160)) * 255).astype(np.uint8)
     >>> right = np.roll(left, -6, axis=1)               # disparity 6 everywhere
     >>> res = match_stereo(left, right, max_disparity=12)
-    >>> bool(np.median(res.disparities) == 6.0), len(res.matches) > 20
+    >>> bool(abs(np.median(res.disparities) - 6.0) < 0.01), len(res.matches) > 20
     (True, True)
+    >>> sorted(set(res.passes.tolist())) in ([0], [0, 1])  # 0: network, 1: guided pass
+    True
     """
     det_params, match_params = split_parameters(params)
     for name, given, keywords in (("detector", detector, det_params),
@@ -171,14 +222,13 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                                         optional=True)
 
     t0 = time.perf_counter()
-    pts_l, resp_l, desc_l, g_l = detector.detect_and_describe(
-        left, mask_left, name="left", mask_name="mask_left")
+    pts_l, resp_l, desc_l, g_l, gray_l = detector.detect_and_describe(
+        left, mask_left, name="left", mask_name="mask_left", keep_gray=True)
     t1 = time.perf_counter()
-    pts_r, resp_r, desc_r, g_r = detector.detect_and_describe(
-        right, mask_right, name="right", mask_name="mask_right")
+    pts_r, resp_r, desc_r, g_r, gray_r = detector.detect_and_describe(
+        right, mask_right, name="right", mask_name="mask_right", keep_gray=True)
     t2 = time.perf_counter()
     shape_l, shape_r = g_l.shape, g_r.shape
-    del g_l, g_r
     if fundamental is None and shape_l[0] != shape_r[0]:
         raise InvalidArgumentError(
             f"`left` and `right` must have the same height (a rectified pair), got "
@@ -197,9 +247,88 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     net = match_pair(pair, desc_l, desc_r, config, fundamental=fundamental,
                      record_energy=record_energy, descriptors_checked=True)
     t3 = time.perf_counter()
-    return StereoMatchResult(
+    timings = {"detect_left": t1 - t0, "detect_right": t2 - t1, "match": t3 - t2}
+    result = StereoMatchResult(
         points_left=pts_l, points_right=pts_r, responses_left=resp_l, responses_right=resp_r,
         query_idx=net.query_idx, train_idx=net.train_idx, distances=net.distances,
-        network=net, keypoint_size=float(detector.getWindowSize()),
-        timings={"detect_left": t1 - t0, "detect_right": t2 - t1, "match": t3 - t2},
+        network=net, keypoint_size=float(detector.getWindowSize()), timings=timings,
+        match_timings={"network": t3 - t2, "guided": 0.0, "refine": 0.0},
     )
+    if fundamental is None and shape_l == shape_r and len(net.query_idx):
+        result = beyond_network(result, (desc_l, desc_r), (g_l, g_r), (gray_l, gray_r),
+                                net.config)
+    return result
+
+
+def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
+                   config: MatcherConfig) -> StereoMatchResult:
+    """``result`` (the network's matches on a rectified pair) with the guided pass's
+    matches appended (``config.guided``) and every match refined (``config.refine``).
+
+    ``descriptors``, ``gradients`` and ``grays`` are the (left, right) windows, feature
+    images and grey images of the detection. The vertical offset both steps search along
+    is the robust plane (``config.vertical_model="plane"``) or the median of ``yl - yr``
+    over the network's matches. Returns ``result`` itself when neither step is on, and
+    with only ``row_offset`` set when that offset varies too fast for a rectified pair
+    (:meth:`~hopmatch.matching.vertical.RowOffset.is_residual`: the steps search along
+    rows; rectify the pair or pass a fundamental matrix).
+    """
+    if not (config.guided or config.refine):
+        return result
+    t0 = time.perf_counter()
+    net = result.network
+    pts_l, pts_r = result.points_left, result.points_right
+    ml = pts_l[net.query_idx]
+    dy = ml[:, 1].astype(np.float64) - pts_r[net.train_idx, 1]
+    offset = fit_row_offset(ml, dy) if config.vertical_model == "plane" else median_offset(dy)
+    if not offset.is_residual():
+        return dataclasses.replace(result, row_offset=offset)
+    n_right = len(pts_r)
+    gm = None
+    if config.guided:
+        gm = guided_pass(pts_l, pts_r, descriptors[0], descriptors[1], gradients[0],
+                         gradients[1], net.query_idx, net.train_idx, offset.at(pts_l),
+                         config, margin=config.guided_margin)
+    t1 = time.perf_counter()
+    k = 0 if gm is None else len(gm.query_idx)
+    query_idx = net.query_idx if k == 0 else np.r_[net.query_idx, gm.query_idx].astype(np.int32)
+    train_idx = (net.train_idx if k == 0 else
+                 np.r_[net.train_idx, n_right + np.arange(k)].astype(np.int32))
+    points_right = pts_r if k == 0 else np.r_[pts_r, gm.right_points].astype(np.float32)
+    responses_right = (result.responses_right if k == 0 else
+                       np.r_[result.responses_right, np.zeros(k, np.float32)])
+    refinement = None
+    if config.refine:
+        left = pts_l[query_idx]
+        yr = left[:, 1].astype(np.float64) - offset.at(left)
+        refinement = refine_disparities(grays[0], grays[1], left,
+                                        points_right[train_idx, 0], yr)
+        moved = train_idx[refinement.ok]
+        points_right = points_right.copy() if points_right is pts_r else points_right
+        points_right[moved, 0] = refinement.x[refinement.ok]
+        points_right[moved, 1] = yr[refinement.ok]
+    t2 = time.perf_counter()
+    timings = dict(result.timings, match=result.timings["match"] + (t2 - t0))
+    match_timings = dict(result.match_timings, guided=t1 - t0, refine=t2 - t1)
+    passes = np.r_[np.full(len(net.query_idx), PASS_NETWORK, np.uint8),
+                   np.full(k, PASS_GUIDED, np.uint8)]
+    distances = net.distances if k == 0 else np.r_[net.distances, gm.distances]
+    return dataclasses.replace(
+        result, points_right=points_right, responses_right=responses_right,
+        query_idx=query_idx, train_idx=train_idx, distances=distances.astype(np.float32),
+        timings=timings, match_timings=match_timings, passes=passes,
+        n_detected_right=n_right, guided=gm, refinement=refinement, row_offset=offset)
+
+
+def warm_up_beyond_network() -> None:
+    """Compile (or load from the cache) the kernels of the guided pass and the refinement
+    on tiny inputs of the dtypes :func:`match_stereo` gives them (``hopmatch.warmup``)."""
+    rng = np.random.default_rng(0)
+    g = np.ascontiguousarray(rng.random((40, 64)) * 100, dtype=np.float32)
+    xs, ys = np.meshgrid(np.arange(20.0, 44.0, 4.0), np.arange(15.0, 26.0, 5.0))
+    pts = np.c_[xs.ravel(), ys.ravel()].astype(np.float32)
+    desc = DericheMoravecDetector().describe_points(g, pts)[1]
+    matched = np.arange(1, len(pts), dtype=np.int32)  # all but the first: it has neighbours
+    guided_pass(pts, pts, desc, desc, g, g, matched, matched, np.zeros(len(pts)),
+                matcher_config({}))
+    refine_disparities(g, g, pts, pts[:, 0], pts[:, 1])

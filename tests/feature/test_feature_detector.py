@@ -30,3 +30,12 @@ def test_detect_and_describe_names_its_arguments():
         assert "mask_left" in str(exc)
     else:  # pragma: no cover
         raise AssertionError("a mask of the wrong shape was accepted")
+
+
+def test_detect_and_describe_can_keep_the_grey_image():
+    det = hopmatch.DericheMoravecDetector()
+    colour = cv2.cvtColor(IMG, cv2.COLOR_GRAY2BGR)
+    *same, gray = det.detect_and_describe(colour, keep_gray=True)
+    for a, b in zip(same, det.detect_and_describe(colour)):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(gray, IMG)

@@ -1,0 +1,169 @@
+"""Per-scene quality of match_stereo's defaults, pass by pass, against ground truth.
+
+Run: ``python benchmarks/passes.py [--scenes NAME ...] [--perturb NAME ...] [--params JSON]
+[--baselines]``
+
+For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
+scene there) it prints: matches, correct@1px and precision@1px
+(:func:`hopmatch.evaluate.score_matches`), the same for each pass of ``result.passes``
+when the result has them (0 network, 1 guided), the median absolute disparity error of the
+correct matches (ground truth interpolated bilinearly at the sub-pixel left point, where its
+four pixels are known: meaningful on the float ground truth of the 2014 scenes), and the
+seconds of ``match_stereo`` (single thread). ``--baselines`` adds SIFT + ratio + band and
+StereoSGBM sampled at the same left keypoints (``hopmatch.compare``), and the pooled ratio.
+
+``--perturb`` applies a change to the right image before matching and maps the right
+points back through it before scoring: ``dy0.5`` (shifted down by 0.5 px), ``gain0.7``
+(intensities times 0.7), ``rot0.1`` (rotated 0.1 degree about the centre), ``scale0.999``,
+or any combination joined by ``+``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import single_thread  # noqa: E402
+
+import hopmatch  # noqa: E402
+from hopmatch import datasets  # noqa: E402
+from hopmatch.compare import METHODS  # noqa: E402
+from hopmatch.evaluate import score_matches  # noqa: E402
+
+
+def bilinear_gt(points: np.ndarray, disparity: np.ndarray) -> np.ndarray:
+    """Ground truth interpolated bilinearly at each (x, y); NaN unless all four pixels are
+    known."""
+    h, w = disparity.shape
+    x = points[:, 0].astype(np.float64)
+    y = points[:, 1].astype(np.float64)
+    x0 = np.floor(x).astype(np.intp)
+    y0 = np.floor(y).astype(np.intp)
+    out = np.full(len(points), np.nan)
+    ok = (x0 >= 0) & (y0 >= 0) & (x0 + 1 < w) & (y0 + 1 < h)
+    ax, ay = x[ok] - x0[ok], y[ok] - y0[ok]
+    a, b = y0[ok], x0[ok]
+    out[ok] = ((1 - ay) * ((1 - ax) * disparity[a, b] + ax * disparity[a, b + 1])
+               + ay * ((1 - ax) * disparity[a + 1, b] + ax * disparity[a + 1, b + 1]))
+    return out
+
+
+def perturbation(spec: str, shape) -> np.ndarray:
+    """2 x 3 affine matrix of a ``+``-joined perturbation spec (see the module doc); gain
+    is handled by :func:`perturb`."""
+    h, w = shape[:2]
+    m = np.eye(3)
+    for part in spec.split("+"):
+        if part.startswith("dy"):
+            m = np.array([[1, 0, 0], [0, 1, float(part[2:])], [0, 0, 1]]) @ m
+        elif part.startswith("rot") or part.startswith("scale"):
+            angle = float(part[3:]) if part.startswith("rot") else 0.0
+            scale = float(part[5:]) if part.startswith("scale") else 1.0
+            r = np.vstack([cv2.getRotationMatrix2D(((w - 1) / 2, (h - 1) / 2), angle, scale),
+                           [0, 0, 1]])
+            m = r @ m
+        elif not part.startswith("gain"):
+            raise SystemExit(f"unknown perturbation {part!r}")
+    return m
+
+
+def perturb(right: np.ndarray, spec: str):
+    """``(perturbed right image, 3 x 3 matrix mapping original right (x, y) to it)``."""
+    m = perturbation(spec, right.shape)
+    out = right
+    if not np.allclose(m, np.eye(3)):
+        out = cv2.warpAffine(right, m[:2], right.shape[1::-1], flags=cv2.INTER_LINEAR,
+                             borderMode=cv2.BORDER_REFLECT)
+    for part in spec.split("+"):
+        if part.startswith("gain"):
+            out = np.clip(out.astype(np.float32) * float(part[4:]), 0, 255).astype(np.uint8)
+    return out, m
+
+
+def unmap(points: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """Points of the perturbed right image mapped back to the original one."""
+    inv = np.linalg.inv(m)
+    hom = np.c_[points.astype(np.float64), np.ones(len(points))]
+    return (hom @ inv.T)[:, :2].astype(np.float32)
+
+
+def score(left, right, disparity):
+    """``(matches, correct, precision, median |error| of correct matches, errors)``."""
+    sc = score_matches(left, right, disparity, thresholds=(1.0,))
+    if len(left) == 0:
+        return 0, 0, float("nan"), float("nan")
+    gt = bilinear_gt(left, disparity)
+    err = (left[:, 0].astype(np.float64) - right[:, 0]) - gt
+    dy = np.abs(left[:, 1] - right[:, 1])
+    good = np.isfinite(err) & (np.abs(err) <= 1.0) & (dy <= 1.0)
+    med = float(np.median(np.abs(err[good]))) if good.any() else float("nan")
+    return len(left), sc.correct[1.0], sc.precision[1.0], med
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", nargs="*", help="scene names (default: all available)")
+    ap.add_argument("--perturb", nargs="*", default=[""], help="right-image perturbations")
+    ap.add_argument("--params", default="{}", help="match_stereo parameters (JSON object)")
+    ap.add_argument("--baselines", action="store_true", help="also SIFT and SGBM")
+    args = ap.parse_args(argv)
+    single_thread()
+    params = json.loads(args.params)
+    names = args.scenes or datasets.list_scenes()
+    for spec in args.perturb:
+        print(f"## perturbation: {spec or 'none'}; params {params or 'defaults'}")
+        print("scene | matches | correct | precision | med err | by pass (n/correct/prec/med)"
+              " | ms" + (" | SIFT | SGBM" if args.baselines else ""))
+        tot = {"m": 0, "c": 0, "s": 0, "sift": 0, "sgbm": 0}
+        worst = (1.0, "")
+        for n in names:
+            scene = datasets.load(n)
+            right, m = perturb(scene.right, spec) if spec else (scene.right, np.eye(3))
+            hopmatch.match_stereo(scene.left[:64, :64], right[:64, :64], **params)  # jit
+            t0 = time.perf_counter()
+            res = hopmatch.match_stereo(scene.left, right, **params)
+            secs = time.perf_counter() - t0
+            left_pts, right_pts = res.matched_left, unmap(res.matched_right, m)
+            k, c, p, med = score(left_pts, right_pts, scene.disparity)
+            sc = score_matches(left_pts, right_pts, scene.disparity, thresholds=(1.0,))
+            tot["m"] += k
+            tot["c"] += c
+            tot["s"] += sc.n_scored
+            worst = min(worst, (p, n))
+            passes = getattr(res, "passes", None)
+            cells = []
+            if passes is not None:
+                for v in np.unique(passes):
+                    sel = passes == v
+                    kk, cc, pp, mm = score(left_pts[sel], right_pts[sel], scene.disparity)
+                    cells.append(f"{v}: {kk}/{cc}/{pp:.3f}/{mm:.3f}")
+            row = (f"{n} | {k} | {c} | {p:.3f} | {med:.3f} | {'; '.join(cells)} | "
+                   f"{1000 * secs:.0f}")
+            if args.baselines:
+                s_sift = METHODS["sift-ratio"](scene)
+                s_sgbm = METHODS["sgbm"](scene)
+                cs = score_matches(s_sift.left_pts, s_sift.right_pts, scene.disparity).correct[1.0]
+                cg = score_matches(s_sgbm.left_pts, s_sgbm.right_pts,
+                                   scene.disparity).correct[1.0]
+                tot["sift"] += cs
+                tot["sgbm"] += cg
+                row += f" | {cs}{'' if c >= cs else ' (miss)'} | {cg}"
+            print(row, flush=True)
+        pooled = tot["c"] / tot["s"] if tot["s"] else float("nan")
+        line = (f"pooled: {tot['m']} matches, {tot['c']} correct, precision {pooled:.4f}, "
+                f"worst {worst[0]:.3f} ({worst[1]})")
+        if args.baselines:
+            line += f"; SIFT {tot['sift']}, SGBM {tot['sgbm']} ({tot['c'] / tot['sgbm']:.2f}x)"
+        print(line + "\n", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,386 @@
+"""Kernels of the guided second pass: neighbours among matched points, a row search of
+zero-mean normalised cross-correlation (ZNCC) on the gradient windows, and the network's
+continuity field of a guided match (eqs. 5, 6, 10, 12)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._config import jit
+from .network import compatibility
+
+#: Status codes of :func:`row_search` (0 = a peak was found and passed the back search).
+FOUND = 0
+OUTSIDE = 1  # a window of the search leaves the image
+FLAT = 2  # the left window has no contrast
+OFF_PREDICTION = 3  # the best correlation of the range lies too far from the prediction
+NOT_PEAK = 4  # the best correlation lies at the end of the searched range
+BACK_FAILED = 5  # searching back from the right position finds another left position
+WEAK = 6  # the peak's ZNCC is below the minimum, or not ahead of the runner-up by the margin
+
+
+@jit
+def query_neighbours(queries, matched, half_w, half_h):
+    """CSR lists, for each query point, of the matched points j with
+    ``|xj - xq| <= half_w`` and ``|yj - yq| <= half_h`` (SPEC section 4's neighbourhood,
+    differences in float32 as in the network's lists).
+
+    ``queries`` (Q, 2) and ``matched`` (M, 2) are float32 (x, y). Returns ``(offsets,
+    indices)``: query q's neighbours are ``indices[offsets[q]:offsets[q + 1]]`` (indices
+    into ``matched``, in no particular order). The matched points are bucketed in cells a
+    hair larger than ``half_w x half_h`` (enlarged until there are at most ~4 cells per
+    point), so each query scans the 3 x 3 cells around it.
+    """
+    nq = queries.shape[0]
+    nm = matched.shape[0]
+    offsets = np.zeros(nq + 1, dtype=np.int64)
+    if nm == 0 or nq == 0:
+        return offsets, np.empty(0, dtype=np.int32)
+    xmin = np.float64(matched[:, 0].min())
+    ymin = np.float64(matched[:, 1].min())
+    span_x = np.float64(matched[:, 0].max()) - xmin
+    span_y = np.float64(matched[:, 1].max()) - ymin
+    cw = max(np.float64(half_w) * (1.0 + 1e-6), 1e-3)
+    ch = max(np.float64(half_h) * (1.0 + 1e-6), 1e-3)
+    ncx = int(span_x / cw) + 1
+    ncy = int(span_y / ch) + 1
+    while ncx * ncy > 4 * nm + 64:
+        cw *= 2.0
+        ch *= 2.0
+        ncx = int(span_x / cw) + 1
+        ncy = int(span_y / ch) + 1
+    cell_start = np.zeros(ncx * ncy + 1, dtype=np.int64)
+    cell = np.empty(nm, dtype=np.int64)
+    for j in range(nm):
+        cx = min(int((np.float64(matched[j, 0]) - xmin) / cw), ncx - 1)
+        cy = min(int((np.float64(matched[j, 1]) - ymin) / ch), ncy - 1)
+        cell[j] = cy * ncx + cx
+        cell_start[cell[j] + 1] += 1
+    for c in range(ncx * ncy):
+        cell_start[c + 1] += cell_start[c]
+    members = np.empty(nm, dtype=np.int32)
+    sx = np.empty(nm, dtype=np.float32)
+    sy = np.empty(nm, dtype=np.float32)
+    fill = cell_start[:-1].copy()
+    for j in range(nm):
+        t = fill[cell[j]]
+        members[t] = j
+        sx[t] = matched[j, 0]
+        sy[t] = matched[j, 1]
+        fill[cell[j]] += 1
+    cap = 16 * nq + 1024
+    idx = np.empty(cap, dtype=np.int32)
+    p = 0
+    for q in range(nq):
+        xq = queries[q, 0]
+        yq = queries[q, 1]
+        # the cells of the box around q (a query may lie outside the matched points' box)
+        cx_lo = max(int(np.floor((np.float64(xq) - half_w - xmin) / cw)), 0)
+        cx_hi = min(int(np.floor((np.float64(xq) + half_w - xmin) / cw)), ncx - 1)
+        cy_lo = max(int(np.floor((np.float64(yq) - half_h - ymin) / ch)), 0)
+        cy_hi = min(int(np.floor((np.float64(yq) + half_h - ymin) / ch)), ncy - 1)
+        for cy in range(cy_lo, cy_hi + 1):
+            if cx_lo > cx_hi:
+                break
+            a = cell_start[cy * ncx + cx_lo]
+            b = cell_start[cy * ncx + cx_hi + 1]
+            if p + (b - a) > cap:
+                cap = max(2 * cap, p + (b - a))
+                grown = np.empty(cap, dtype=np.int32)
+                grown[:p] = idx[:p]
+                idx = grown
+            for t in range(a, b):
+                idx[p] = members[t]
+                p += (abs(sx[t] - xq) <= half_w) & (abs(sy[t] - yq) <= half_h)
+        offsets[q + 1] = p
+    return offsets, idx[:p]
+
+
+@jit
+def neighbour_medians(offsets, idx, values):
+    """Median of ``values[idx[offsets[q]:offsets[q + 1]]]`` for each q (NaN when empty;
+    the mean of the two middle values for an even count, as ``np.median``)."""
+    nq = offsets.shape[0] - 1
+    out = np.full(nq, np.nan)
+    longest = 0
+    for q in range(nq):
+        longest = max(longest, offsets[q + 1] - offsets[q])
+    buf = np.empty(longest, dtype=np.float64)
+    for q in range(nq):
+        a = offsets[q]
+        c = offsets[q + 1] - a
+        if c == 0:
+            continue
+        for t in range(c):  # insertion sort: the lists are short
+            v = np.float64(values[idx[a + t]])
+            u = t
+            while u > 0 and buf[u - 1] > v:
+                buf[u] = buf[u - 1]
+                u -= 1
+            buf[u] = v
+        h = c // 2
+        out[q] = buf[h] if c % 2 else 0.5 * (buf[h - 1] + buf[h])
+    return out
+
+
+@jit
+def _strip(g, x_lo, n_cols, y_top, ay, rows, out):
+    """``out[r, c]``: g at row ``y_top + r + ay`` (lerped between rows) and column
+    ``x_lo + c`` for ``r < rows``, ``c < n_cols``."""
+    by = 1.0 - ay
+    for r in range(rows):
+        y = y_top + r
+        for c in range(n_cols):
+            x = x_lo + c
+            out[r, c] = by * np.float64(g[y, x]) + ay * np.float64(g[y + 1, x])
+
+
+@jit
+def _correlate(a, sa2, strip, s, span, acc, colsum, colsq, z):
+    """``z[m]``: ZNCC of the zero-mean ``s x s`` window ``a`` (float64, raster order,
+    ``sa2 = sum a**2``) with the window of ``strip`` whose first column is ``m``, for
+    ``m < span``; -1 where that window is flat.
+
+    The cross sums run along the strip's rows (one multiply-add per window and pixel, in
+    loops over ``m`` that vectorise); the windows' sums and sums of squares slide over
+    column sums.
+    """
+    n = s * s
+    ncols = span + s - 1
+    for m in range(span):
+        acc[m] = 0.0
+    for x in range(ncols):
+        colsum[x] = 0.0
+        colsq[x] = 0.0
+    for r in range(s):
+        row = strip[r]
+        for x in range(ncols):
+            v = row[x]
+            colsum[x] += v
+            colsq[x] += v * v
+        for c in range(s):
+            coef = a[r * s + c]
+            for m in range(span):
+                acc[m] += coef * row[m + c]
+    sb = 0.0
+    sbb = 0.0
+    for c in range(s - 1):
+        sb += colsum[c]
+        sbb += colsq[c]
+    for m in range(span):
+        sb += colsum[m + s - 1]
+        sbb += colsq[m + s - 1]
+        var = sbb - sb * sb / n
+        if var <= 1e-12 * max(sbb, 1e-300):
+            z[m] = -1.0
+        else:
+            z[m] = acc[m] / np.sqrt(sa2 * var)
+        sb -= colsum[m]
+        sbb -= colsq[m]
+
+
+@jit
+def _zncc_bilinear(a, sa2, g, x, y, s):
+    """ZNCC of the zero-mean float64 ``s x s`` window ``a`` (``sa2 = sum a**2``) with the
+    window of ``g`` centred on (x, y), sampled bilinearly; -1 when that window is flat.
+    The caller keeps the window's pixels inside ``g``."""
+    rad = s // 2
+    fx = np.floor(x)
+    fy = np.floor(y)
+    ax = x - fx
+    ay = y - fy
+    x0 = int(fx) - rad
+    y0 = int(fy) - rad
+    sb = 0.0
+    sbb = 0.0
+    sab = 0.0
+    for r in range(s):
+        yy = y0 + r
+        for c in range(s):
+            xx = x0 + c
+            v = ((1.0 - ay) * ((1.0 - ax) * np.float64(g[yy, xx]) + ax * np.float64(g[yy, xx + 1]))
+                 + ay * ((1.0 - ax) * np.float64(g[yy + 1, xx])
+                         + ax * np.float64(g[yy + 1, xx + 1])))
+            sb += v
+            sbb += v * v
+            sab += a[r * s + c] * v
+    var = sbb - sb * sb / (s * s)
+    if var <= 1e-12 * max(sbb, 1e-300):
+        return -1.0
+    return sab / np.sqrt(sa2 * var)
+
+
+@jit
+def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer, back,
+               min_zncc, margin, eps):
+    """The guided search of each query (left point) along its row of the right image.
+
+    For query q (left point ``i = queries[q]`` at (xl, yl)), the right row is
+    ``yr = yl - y_offset[q]`` and the search is centred on column ``centre[q]`` (the
+    predicted ``xl - d``). The left window is ``desc_l[i]`` (eqs. 8-9, zero mean,
+    ``s x s``); right windows are centred on the integer columns ``c`` with
+    ``|c - round(centre)| <= outer`` (rows lerped at yr, columns exact), scored by ZNCC.
+    Let ``c*`` be the best of them: the match is *found* when ``|c* - centre| <= inner``,
+    ``c*`` is a local maximum (one more column is scored at each end for that), its ZNCC
+    is at least ``min_zncc`` and exceeds by ``margin`` the best one at least two columns
+    from it (uniqueness), and searching back (the right window at the refined position
+    against the left windows at ``xl + t``, ``0 < |t| <= back``) finds none better than
+    the left window itself. The refined position is ``c* + delta``, delta the vertex of
+    the parabola through the ZNCC at ``c* - 1, c*, c* + 1`` (clamped to +-0.5).
+
+    Returns ``(status, best, second, xr, similarity)`` per query: the status code
+    (:data:`FOUND`...), the best ZNCC, the best ZNCC at least two columns from ``c*``,
+    the refined right x, and eq. 7's normalised distance (``mean |a - b| / (0.5 (mean |a|
+    + mean |b|) + eps)``) between the left window and the right window at (xr, yr).
+    """
+    h, w = g_r.shape
+    hl, wl = g_l.shape
+    nq = queries.shape[0]
+    s = int(np.sqrt(desc_l.shape[1]) + 0.5)
+    rad = s // 2
+    n = s * s
+    status = np.full(nq, OUTSIDE, dtype=np.int8)
+    best = np.full(nq, np.nan)
+    second = np.full(nq, np.nan)
+    xr_out = np.full(nq, np.nan)
+    sim = np.full(nq, np.nan)
+    span = 2 * outer + 3  # centres c0 - outer - 1 .. c0 + outer + 1
+    strip = np.empty((s, span + 2 * rad + 1), dtype=np.float64)
+    rbw = np.empty((s, s), dtype=np.float64)
+    nbig = span + s
+    z = np.empty(nbig, dtype=np.float64)
+    acc = np.empty(nbig, dtype=np.float64)
+    colsum = np.empty(nbig, dtype=np.float64)
+    colsq = np.empty(nbig, dtype=np.float64)
+    af = np.empty(n, dtype=np.float64)
+    flat = np.empty(n, dtype=np.float64)
+    for q in range(nq):
+        i = queries[q]
+        xl = np.float64(pts_l[i, 0])
+        yl = np.float64(pts_l[i, 1])
+        yr = yl - y_offset[q]
+        if not (np.isfinite(yr) and np.isfinite(centre[q])):
+            continue
+        c0 = int(np.floor(centre[q] + 0.5))
+        first = c0 - outer - 1
+        x_lo = first - rad
+        x_hi = c0 + outer + 1 + rad + 1  # one more column for the refined window
+        fy = np.floor(yr)
+        y_top = int(fy) - rad
+        if x_lo < 0 or x_hi > w - 1 or y_top < 0 or y_top + s > h - 1:
+            continue
+        sa2 = 0.0
+        for t in range(n):
+            af[t] = np.float64(desc_l[i, t])
+            sa2 += af[t] * af[t]
+        if sa2 <= 1e-12:
+            status[q] = FLAT
+            continue
+        _strip(g_r, x_lo, x_hi - x_lo + 1, y_top, yr - fy, s, strip)
+        _correlate(af, sa2, strip, s, span, acc, colsum, colsq, z)
+        mb = 1
+        for m in range(1, span - 1):
+            if z[m] > z[mb]:
+                mb = m
+        z2 = -1.0
+        for m in range(1, span - 1):
+            if abs(m - mb) >= 2 and z[m] > z2:
+                z2 = z[m]
+        best[q] = z[mb]
+        second[q] = z2
+        cbest = first + mb
+        if abs(cbest - centre[q]) > inner:
+            status[q] = OFF_PREDICTION
+            continue
+        zm, z0, zp = z[mb - 1], z[mb], z[mb + 1]
+        if zm > z0 or zp > z0:
+            status[q] = NOT_PEAK
+            continue
+        if not (z0 >= min_zncc and z0 - z2 >= margin):
+            status[q] = WEAK
+            continue
+        den = zm - 2.0 * z0 + zp
+        delta = 0.0
+        if den < 0.0:
+            delta = min(max(0.5 * (zm - zp) / den, -0.5), 0.5)
+        xr = cbest + delta
+        xr_out[q] = xr
+        # the right window at (xr, yr), zero mean
+        fx = np.floor(xr)
+        ax = xr - fx
+        col = int(fx) - rad - x_lo
+        sb = 0.0
+        for r in range(s):
+            for c in range(s):
+                v = (1.0 - ax) * strip[r, col + c] + ax * strip[r, col + c + 1]
+                rbw[r, c] = v
+                sb += v
+        mean_b = sb / n
+        sbb = 0.0
+        m_ab = 0.0
+        m_a = 0.0
+        m_b = 0.0
+        for r in range(s):
+            for c in range(s):
+                v = rbw[r, c] - mean_b
+                rbw[r, c] = v
+                sbb += v * v
+                av = af[r * s + c]
+                m_ab += abs(av - v)
+                m_a += abs(av)
+                m_b += abs(v)
+        sim[q] = (m_ab / n) / (0.5 * (m_a / n + m_b / n) + eps)
+        # back search: the right window against the left windows at xl + t, |t| <= back
+        # (t = 0 is the left window itself, whose ZNCC is symmetric)
+        if not (np.floor(xl) - back - rad >= 0 and np.floor(xl) + back + rad + 1 <= wl - 1
+                and np.floor(yl) - rad >= 0 and np.floor(yl) + rad + 1 <= hl - 1):
+            status[q] = BACK_FAILED
+            continue
+        for r in range(s):
+            for c in range(s):
+                flat[r * s + c] = rbw[r, c]
+        z_here = 0.0
+        for t in range(n):
+            z_here += flat[t] * af[t]
+        z_here /= np.sqrt(sbb * sa2)
+        found = True
+        for t in range(1, back + 1):
+            if (_zncc_bilinear(flat, sbb, g_l, xl - t, yl, s) > z_here
+                    or _zncc_bilinear(flat, sbb, g_l, xl + t, yl, s) > z_here):
+                found = False
+                break
+        status[q] = FOUND if found else BACK_FAILED
+    return status, best, second, xr_out, sim
+
+
+@jit
+def continuity_field(pts_q, xr, yr, sim_q, offsets, idx, rows, m_left, m_right, m_sim,
+                     theta, slope, weight, bias):
+    """Eq. 12's bracket for a guided match alone in its row and column: ``u = bias +
+    sum_j C`` over the matched neighbours j (eq. 5 of eq. 10's ``X = |d_q - d_j| + |D_qj -
+    D'_qj| + weight (s_q + s_j)``, d the Euclidean disparity of eq. 6, D and D' the left
+    and right lengths), with ``(pts_q[q], (xr[q], yr[q]))`` the guided pair, ``sim_q`` its
+    normalised similarity, its neighbours ``idx[offsets[rows[q]]:offsets[rows[q] + 1]]``
+    (indices into the matched pairs ``m_left``, ``m_right``, ``m_sim``)."""
+    nq = pts_q.shape[0]
+    u = np.full(nq, np.nan)
+    for q in range(nq):
+        if not np.isfinite(xr[q]):
+            continue
+        x0 = np.float64(pts_q[q, 0])
+        y0 = np.float64(pts_q[q, 1])
+        d_q = np.sqrt((x0 - xr[q]) ** 2 + (y0 - yr[q]) ** 2)
+        total = bias
+        for t in range(offsets[rows[q]], offsets[rows[q] + 1]):
+            j = idx[t]
+            xj = np.float64(m_left[j, 0])
+            yj = np.float64(m_left[j, 1])
+            xk = np.float64(m_right[j, 0])
+            yk = np.float64(m_right[j, 1])
+            d_j = np.sqrt((xj - xk) ** 2 + (yj - yk) ** 2)
+            len_l = np.sqrt((x0 - xj) ** 2 + (y0 - yj) ** 2)
+            len_r = np.sqrt((xr[q] - xk) ** 2 + (yr[q] - yk) ** 2)
+            x = abs(d_q - d_j) + abs(len_l - len_r) + weight * (sim_q[q] + m_sim[j])
+            total += compatibility(x, theta, slope)
+        u[q] = total
+    return u

@@ -1,0 +1,144 @@
+"""The guided second pass: support propagation from the network's matches to the left
+points it left unmatched (beyond the paper; docs/method.md).
+
+The network stays the judge. A left point that the network left unmatched gets a
+disparity only when the network would keep it: its matched neighbours (SPEC section 4's
+``neighbour_width x neighbour_height`` window) predict a disparity (their median), a row
+search of the ZNCC of the gradient windows (eqs. 8-9) finds a clear peak near it that
+searching back from the right image confirms, and the pair, alone in its row and column,
+would have a positive local field (eq. 12's bracket, with eq. 5's compatibility of eq.
+10's ``X`` against every matched neighbour and the network's input bias).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._kernels import guided as _k
+from .similarity import EPS, match_distance, similarity_distance
+
+#: Largest distance (px) between the peak of the row search and the predicted disparity.
+GUIDED_RADIUS = 2.0
+#: Half-width (px) of the wider range over which the peak must be the best, and unique.
+GUIDED_SEARCH = 3
+#: Half-width (px) of the search back from the right position along the left row.
+GUIDED_BACK = 1
+#: Smallest ZNCC of an accepted peak.
+GUIDED_MIN_ZNCC = 0.8
+#: Fewest matched neighbours a left point needs to be searched (the field test needs
+#: about three compatible ones with the default input bias).
+GUIDED_MIN_SUPPORT = 3
+
+
+@dataclass(frozen=True)
+class GuidedMatches:
+    """Matches of the guided pass, one entry per match.
+
+    Attributes
+    ----------
+    query_idx : (K,) int32 ndarray
+        Left point of each guided match (one that the network left unmatched).
+    right_points : (K, 2) float32 ndarray
+        Its right position (x, y), sub-pixel: on the row the vertical offset predicts.
+    distances : (K,) float32 ndarray
+        ``1 / (1 + exp(u))`` of the match's field u, as the network's ``distances``.
+    fields : (K,) float64 ndarray
+        u: eq. 12's bracket for the guided pair alone in its row and column (> 0).
+    zncc, second : (K,) float64 ndarray
+        The ZNCC of the peak, and the best ZNCC at least two pixels from it in the wider
+        range (``zncc - second >= margin``).
+    similarity : (K,) float64 ndarray
+        Eq. 7's normalised distance of the pair (the network's similarity term).
+    """
+
+    query_idx: np.ndarray
+    right_points: np.ndarray
+    distances: np.ndarray
+    fields: np.ndarray
+    zncc: np.ndarray
+    second: np.ndarray
+    similarity: np.ndarray
+
+
+def empty_guided() -> GuidedMatches:
+    """A :class:`GuidedMatches` without matches."""
+    z = np.zeros(0)
+    return GuidedMatches(np.zeros(0, np.int32), np.zeros((0, 2), np.float32),
+                         np.zeros(0, np.float32), z, z, z, z)
+
+
+def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_offset,
+                config, *, margin: float = 0.1, radius: float = GUIDED_RADIUS,
+                search: int = GUIDED_SEARCH, back: int = GUIDED_BACK,
+                min_zncc: float = GUIDED_MIN_ZNCC,
+                min_support: int = GUIDED_MIN_SUPPORT) -> GuidedMatches:
+    """Guided matches of the left points the network left unmatched (rectified pairs).
+
+    Parameters
+    ----------
+    pts_l, pts_r : (Nl, 2), (Nr, 2) float32 ndarray
+        Left and right points (x, y), as matched by the network.
+    desc_l, desc_r : float32 ndarray
+        Their gradient windows (eqs. 8-9: ``descriptor_size ** 2`` columns, zero mean).
+    g_l, g_r : (H, W) float32 ndarray
+        The feature images (gradient magnitude) the windows were cut from.
+    query_idx, train_idx : (M,) int ndarray
+        The network's matches.
+    y_offset : (Nl,) float ndarray
+        The pair's vertical offset ``yl - yr`` at every left point: the right row searched
+        is ``yl - y_offset``.
+    config : MatcherConfig
+        The network's parameters: its neighbourhood (``neighbour_width``,
+        ``neighbour_height``), compatibility (``theta``, ``slope``), ``similarity_weight``
+        and ``input_bias`` make the field test.
+    margin : float
+        Smallest lead of the peak's ZNCC over the best one at least two pixels away within
+        ``+-search`` px (the uniqueness margin).
+    radius, search, back, min_zncc, min_support
+        See the module constants.
+
+    Returns
+    -------
+    GuidedMatches
+        Every returned match passed every test: the peak is the best ZNCC within
+        ``search`` px of the predicted position, lies within ``radius`` px of it, is a
+        local maximum, has ZNCC >= ``min_zncc`` and the margin, searching back finds the
+        left point again, and its field is positive.
+    """
+    n_left = len(pts_l)
+    if len(query_idx) == 0 or n_left == 0 or desc_l.dtype == np.uint8:
+        return empty_guided()
+    qi = np.asarray(query_idx, dtype=np.int64)
+    ti = np.asarray(train_idx, dtype=np.int64)
+    m_left = np.ascontiguousarray(pts_l[qi], dtype=np.float32)
+    m_right = np.ascontiguousarray(pts_r[ti], dtype=np.float32)
+    m_sim = similarity_distance(desc_l, desc_r, qi, ti)
+    matched = np.zeros(n_left, dtype=bool)
+    matched[qi] = True
+    queries = np.flatnonzero(~matched)
+    off, idx = _k.query_neighbours(np.ascontiguousarray(pts_l[queries]), m_left,
+                                   np.float32(config.neighbour_width / 2),
+                                   np.float32(config.neighbour_height / 2))
+    rows = np.flatnonzero(np.diff(off) >= min_support)
+    if len(rows) == 0:
+        return empty_guided()
+    disp = m_left[:, 0].astype(np.float64) - m_right[:, 0]
+    pred = _k.neighbour_medians(off, idx, disp)[rows]
+    q = queries[rows].astype(np.int64)
+    yoff = np.ascontiguousarray(np.asarray(y_offset, dtype=np.float64)[q])
+    status, best, second, xr, sim = _k.row_search(
+        g_l, g_r, pts_l, desc_l, q, pts_l[q, 0].astype(np.float64) - pred, yoff,
+        float(radius), int(search), int(back), float(min_zncc), float(margin), EPS)
+    ok = status == _k.FOUND
+    yr = pts_l[q, 1].astype(np.float64) - yoff
+    u = _k.continuity_field(np.ascontiguousarray(pts_l[q]), np.where(ok, xr, np.nan), yr,
+                            sim, off, idx, rows, m_left, m_right, m_sim, config.theta,
+                            config.slope, config.similarity_weight, config.input_bias)
+    acc = np.flatnonzero(ok & (np.nan_to_num(u, nan=-np.inf) > 0))
+    return GuidedMatches(
+        query_idx=q[acc].astype(np.int32),
+        right_points=np.c_[xr[acc], yr[acc]].astype(np.float32),
+        distances=match_distance(u[acc]).astype(np.float32), fields=u[acc],
+        zncc=best[acc], second=second[acc], similarity=sim[acc])

@@ -1,0 +1,97 @@
+"""The residual vertical offset of a rectified pair, ``dy = yl - yr``, as a function of the
+left position: what the guided pass and the refinement search along (beyond the paper;
+docs/method.md)."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+#: Fewest matches a plane is fitted to; with fewer the model is their median.
+PLANE_MIN_MATCHES = 50
+#: Iterations of the robust (reweighted least-squares) plane fit.
+PLANE_ITERATIONS = 5
+#: Tukey biweight cut-off in robust standard deviations (MAD * 1.4826).
+PLANE_TUKEY = 4.685
+#: Largest slope (px per px, about tan 1 degree) of a residual vertical offset: a pair
+#: whose offset varies faster is not rectified, and searching along rows is no use.
+MAX_RESIDUAL_SLOPE = 0.0175
+
+
+class RowOffset(NamedTuple):
+    """``dy(x, y) = a + b (x - cx) + c (y - cy)``: the vertical offset ``yl - yr`` of the
+    pair at the left point (x, y), centred on (cx, cy) to keep the fit well conditioned."""
+
+    a: float
+    b: float = 0.0
+    c: float = 0.0
+    cx: float = 0.0
+    cy: float = 0.0
+
+    def is_residual(self) -> bool:
+        """Whether the offset varies no faster than :data:`MAX_RESIDUAL_SLOPE` in x and in
+        y: what the rectification of a calibrated rig leaves (a rotation below about a
+        degree), and what the guided pass and the refinement can follow along rows."""
+        return abs(self.b) <= MAX_RESIDUAL_SLOPE and abs(self.c) <= MAX_RESIDUAL_SLOPE
+
+    def at(self, points: np.ndarray) -> np.ndarray:
+        """(N,) float64: the offset at each (x, y) of ``points`` ((N, 2))."""
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        return self.a + self.b * (p[:, 0] - self.cx) + self.c * (p[:, 1] - self.cy)
+
+
+def median_offset(dy: np.ndarray) -> RowOffset:
+    """The constant model: the median of ``dy`` (0 without matches)."""
+    dy = np.asarray(dy, dtype=np.float64)
+    return RowOffset(float(np.median(dy)) if len(dy) else 0.0)
+
+
+def fit_row_offset(left: np.ndarray, dy: np.ndarray, weights=None) -> RowOffset:
+    """Robust plane ``dy = a + b x + c y`` through the vertical offsets of matches.
+
+    A small rotation of one camera about its optical axis, or a scale difference, makes
+    the residual vertical disparity of a rectified pair linear in x and y; a single
+    median cannot follow it. The plane is fitted by iteratively reweighted least squares
+    with Tukey's biweight (:data:`PLANE_TUKEY` robust standard deviations, from the MAD of
+    the residuals), starting from the median, so that wrong matches do not pull it.
+
+    Parameters
+    ----------
+    left : (M, 2) ndarray
+        Left points of confident matches.
+    dy : (M,) ndarray
+        Their ``yl - yr``.
+    weights : (M,) ndarray, optional
+        Prior weights (e.g. the matches' confidence), >= 0.
+
+    Returns
+    -------
+    RowOffset
+        The plane; the median (:func:`median_offset`) when there are fewer than
+        :data:`PLANE_MIN_MATCHES` matches or their positions do not span a plane.
+    """
+    p = np.asarray(left, dtype=np.float64).reshape(-1, 2)
+    dy = np.asarray(dy, dtype=np.float64).reshape(-1)
+    finite = np.isfinite(dy) & np.isfinite(p).all(axis=1)
+    p, dy = p[finite], dy[finite]
+    prior = (np.ones(len(dy)) if weights is None
+             else np.asarray(weights, dtype=np.float64).reshape(-1)[finite])
+    base = median_offset(dy)
+    if len(dy) < PLANE_MIN_MATCHES:
+        return base
+    cx, cy = (float(v) for v in np.median(p, axis=0))
+    design = np.c_[np.ones(len(dy)), p[:, 0] - cx, p[:, 1] - cy]
+    coef = np.array([base.a, 0.0, 0.0])
+    for _ in range(PLANE_ITERATIONS):
+        res = dy - design @ coef
+        scale = 1.4826 * float(np.median(np.abs(res - np.median(res))))
+        scale = max(scale, 1e-3)
+        r = res / (PLANE_TUKEY * scale)
+        w = prior * np.where(np.abs(r) < 1.0, (1.0 - r * r) ** 2, 0.0)
+        sw = np.sqrt(w)
+        a = design * sw[:, None]
+        if np.linalg.matrix_rank(a) < 3:
+            return base
+        coef = np.linalg.lstsq(a, dy * sw, rcond=None)[0]
+    return RowOffset(float(coef[0]), float(coef[1]), float(coef[2]), cx, cy)

@@ -1,0 +1,90 @@
+"""The residual vertical-offset model: a robust plane recovers an injected rotation."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+import hopmatch
+from hopmatch.matching.disambiguate import vertically_consistent
+from hopmatch.matching.vertical import PLANE_MIN_MATCHES, RowOffset, fit_row_offset
+
+
+def rotated_offsets(points, degrees, centre, shift=0.0):
+    """``yl - yr`` when the right image is the left one rotated by ``degrees`` about
+    ``centre`` and moved down by ``shift`` (right = R (left - centre) + centre)."""
+    t = math.radians(degrees)
+    x, y = points[:, 0] - centre[0], points[:, 1] - centre[1]
+    yr = centre[1] + math.sin(t) * x + math.cos(t) * y + shift
+    return points[:, 1] - yr
+
+
+def test_plane_recovers_an_injected_rotation_despite_outliers():
+    rng = np.random.default_rng(0)
+    pts = np.c_[rng.uniform(0, 1200, 800), rng.uniform(0, 400, 800)]
+    dy = rotated_offsets(pts, 0.2, (600, 200), shift=0.3) + rng.normal(0, 0.1, 800)
+    bad = rng.random(800) < 0.2
+    dy[bad] += rng.uniform(-6, 6, bad.sum())
+    model = fit_row_offset(pts, dy)
+    t = math.radians(0.2)
+    assert model.b == pytest.approx(-math.sin(t), abs=2e-4)
+    assert model.c == pytest.approx(1 - math.cos(t), abs=2e-4)
+    truth = rotated_offsets(pts, 0.2, (600, 200), shift=0.3)
+    assert np.abs(model.at(pts) - truth).max() < 0.05
+    # the plane keeps the correct pairs at the sides that the median rejects
+    plane = vertically_consistent(dy, 1.0, pts)
+    median = vertically_consistent(dy, 1.0)
+    assert plane[~bad].all() and not median[~bad].all()
+
+
+def test_few_matches_give_the_median():
+    pts = np.c_[np.arange(10.0), np.arange(10.0)]
+    dy = np.linspace(-1, 1, 10) + 0.25
+    assert PLANE_MIN_MATCHES > 10
+    model = fit_row_offset(pts, dy)
+    assert model == RowOffset(float(np.median(dy)))
+    np.testing.assert_array_equal(vertically_consistent(dy, 1.0, pts),
+                                  vertically_consistent(dy, 1.0))
+
+
+def test_collinear_points_give_the_median():
+    pts = np.c_[np.arange(100.0), np.zeros(100)]
+    model = fit_row_offset(pts, np.full(100, 0.4))
+    assert model.b == 0.0 and model.c == 0.0 and model.a == pytest.approx(0.4)
+
+
+def test_match_stereo_measures_the_rotation_of_a_pair():
+    """A pair whose right image is rotated 0.3 degree: the model match_stereo searched
+    along has the rotation's slope, and the guided and refined matches follow it."""
+    rng = np.random.default_rng(2)
+    tex = cv2.GaussianBlur(rng.normal(size=(240, 480)), (0, 0), 1.2)
+    left = np.clip((tex - tex.min()) / np.ptp(tex) * 220 + 15, 0, 255).astype(np.uint8)
+    m = cv2.getRotationMatrix2D((239.5, 119.5), -0.3, 1.0)  # cv2: positive = anticlockwise
+    m[0, 2] -= 8.0  # disparity 8
+    right = cv2.warpAffine(left, m, (480, 240), flags=cv2.INTER_CUBIC,
+                           borderMode=cv2.BORDER_REFLECT)
+    res = hopmatch.match_stereo(left, right, max_disparity=16, max_vertical=2.0)
+    slope = res.row_offset.b  # d(yl - yr)/dx
+    assert slope == pytest.approx(-math.sin(math.radians(0.3)), abs=5e-4)
+    ml, mr = res.matched_left, res.matched_right
+    hom = np.c_[ml, np.ones(len(ml))] @ m.T  # where each left point lands in the right
+    assert np.median(np.abs(hom[:, 1] - mr[:, 1])) < 0.1
+
+
+def test_a_pair_rotated_by_degrees_is_not_searched_along_rows():
+    """Past about a degree the offset is no rectification residual: match_stereo keeps the
+    network's matches only (rectify the pair or pass its fundamental matrix)."""
+    rng = np.random.default_rng(2)
+    tex = cv2.GaussianBlur(rng.normal(size=(240, 480)), (0, 0), 1.2)
+    left = np.clip((tex - tex.min()) / np.ptp(tex) * 220 + 15, 0, 255).astype(np.uint8)
+    m = cv2.getRotationMatrix2D((239.5, 119.5), -3.0, 1.0)
+    m[0, 2] -= 8.0
+    right = cv2.warpAffine(left, m, (480, 240), flags=cv2.INTER_CUBIC,
+                           borderMode=cv2.BORDER_REFLECT)
+    res = hopmatch.match_stereo(left, right, max_disparity=16, max_vertical=2.0)
+    assert res.row_offset is not None and not res.row_offset.is_residual()
+    assert res.guided is None and res.refinement is None
+    np.testing.assert_array_equal(res.query_idx, res.network.query_idx)

@@ -1,0 +1,135 @@
+"""Slow, obviously correct references for the kernels of the guided pass, the sub-pixel
+refinement and the vertical-offset model (``hopmatch._kernels.guided``,
+``hopmatch._kernels.refine``). Plain NumPy on one point at a time, written from the
+kernels' docstrings; the tests compare the kernels with them to a stated tolerance."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def neighbours(queries, matched, half_w, half_h):
+    """For each query, the set of matched indices j with ``|xj - xq| <= half_w`` and
+    ``|yj - yq| <= half_h`` (differences in float32)."""
+    out = []
+    for xq, yq in np.asarray(queries, np.float32):
+        dx = np.abs(matched[:, 0] - np.float32(xq))
+        dy = np.abs(matched[:, 1] - np.float32(yq))
+        out.append(set(np.flatnonzero((dx <= np.float32(half_w)) & (dy <= np.float32(half_h)))
+                       .tolist()))
+    return out
+
+
+def bilinear(g, x, y):
+    """g at the fractional (x, y), bilinear, in float64."""
+    x0, y0 = math.floor(x), math.floor(y)
+    ax, ay = x - x0, y - y0
+    g = g.astype(np.float64)
+    return ((1 - ay) * ((1 - ax) * g[y0, x0] + ax * g[y0, x0 + 1])
+            + ay * ((1 - ax) * g[y0 + 1, x0] + ax * g[y0 + 1, x0 + 1]))
+
+
+def window(g, x, y, s):
+    """The ``s x s`` window of g centred on (x, y), bilinear, as a float64 raster row."""
+    r = s // 2
+    return np.array([bilinear(g, x + c - r, y + rr - r) for rr in range(s) for c in range(s)])
+
+
+def zncc(a, b):
+    """Zero-mean normalised cross-correlation of two windows (-1 for a flat b)."""
+    a = np.asarray(a, np.float64) - np.mean(a)
+    b = np.asarray(b, np.float64) - np.mean(b)
+    den = math.sqrt(float(a @ a) * float(b @ b))
+    return float(a @ b) / den if den > 1e-12 else -1.0
+
+
+def normalised_distance(a, b, eps=1e-6):
+    """Eq. 7 normalised: ``mean |a - b| / (0.5 (mean |a| + mean |b|) + eps)`` of two
+    zero-mean windows."""
+    a = np.asarray(a, np.float64) - np.mean(a)
+    b = np.asarray(b, np.float64) - np.mean(b)
+    return float(np.mean(np.abs(a - b)) / (0.5 * (np.mean(np.abs(a)) + np.mean(np.abs(b)))
+                                           + eps))
+
+
+def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer, back,
+                   min_zncc, margin):
+    """The row search of one query as ``hopmatch._kernels.guided.row_search`` documents it:
+    ``(found, best, second, xr, similarity)``; ``found`` False when any test fails, and
+    the values NaN when the search did not reach them."""
+    s = int(round(math.sqrt(len(left_window))))
+    yr = yl - y_offset
+    c0 = math.floor(centre + 0.5)
+    cols = list(range(c0 - outer - 1, c0 + outer + 2))
+    z = [zncc(left_window, window(g_r, c, yr, s)) for c in cols]
+    inner_idx = range(1, len(cols) - 1)
+    mb = max(inner_idx, key=lambda m: (z[m], -m))  # first best
+    second = max([z[m] for m in inner_idx if abs(m - mb) >= 2], default=-1.0)
+    best = z[mb]
+    nan = float("nan")
+    if abs(cols[mb] - centre) > inner or z[mb - 1] > best or z[mb + 1] > best:
+        return False, best, second, nan, nan
+    if not (best >= min_zncc and best - second >= margin):
+        return False, best, second, nan, nan
+    den = z[mb - 1] - 2 * best + z[mb + 1]
+    delta = min(max(0.5 * (z[mb - 1] - z[mb + 1]) / den, -0.5), 0.5) if den < 0 else 0.0
+    xr = cols[mb] + delta
+    right = window(g_r, xr, yr, s)
+    sim = normalised_distance(left_window, right)
+    here = zncc(right, left_window)
+    for t in range(1, back + 1):
+        for sign in (-1, 1):
+            if zncc(right, window(g_l, xl + sign * t, yl, s)) > here:
+                return False, best, second, xr, sim
+    return True, best, second, xr, sim
+
+
+def compatibility(x, theta, slope):
+    """Eq. 5."""
+    return 2.0 / (1.0 + math.exp(min(slope * (x - theta), 700.0))) - 1.0
+
+
+def field(pl, pr, sim, neighbours_left, neighbours_right, neighbours_sim, theta, slope,
+          weight, bias):
+    """Eq. 12's bracket of the pair (pl, pr) alone in its row and column: ``bias + sum_j
+    C(|d - d_j| + |D - D'| + weight (sim + sim_j))`` (eqs. 5, 6, 10)."""
+    d = math.hypot(pl[0] - pr[0], pl[1] - pr[1])
+    total = bias
+    for ql, qr, sj in zip(neighbours_left, neighbours_right, neighbours_sim):
+        dj = math.hypot(ql[0] - qr[0], ql[1] - qr[1])
+        len_l = math.hypot(pl[0] - ql[0], pl[1] - ql[1])
+        len_r = math.hypot(pr[0] - qr[0], pr[1] - qr[1])
+        total += compatibility(abs(d - dj) + abs(len_l - len_r) + weight * (sim + sj), theta,
+                               slope)
+    return total
+
+
+def refine_one(img_l, img_r, xl, yl, xr, yr, radius, step, levels, iterations, tol,
+               max_shift):
+    """The refinement of one match as ``hopmatch._kernels.refine.refine_rows`` documents
+    it: ``(x, ok)``."""
+    s = 2 * radius + 1
+    a = window(img_l, xl, yl, s)
+    x, h, moves = xr, step, 0
+    for _ in range(levels):
+        done = False
+        while moves < iterations:
+            zm, z0, zp = (zncc(a, window(img_r, x + o, yr, s)) for o in (-h, 0.0, h))
+            den = zm - 2 * z0 + zp
+            if zm > z0 or zp > z0 or den >= 0:
+                move = h if zp > zm else -h
+            else:
+                move = h * min(max(0.5 * (zm - zp) / den, -1.0), 1.0)
+            x += move
+            moves += 1
+            if abs(move) < tol:
+                done = True
+                break
+            if abs(x - xr) > max_shift:
+                break
+        if not done or abs(x - xr) > max_shift:
+            return xr, False
+        h /= 2
+    return x, True
