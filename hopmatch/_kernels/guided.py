@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._config import jit
-from .network import compatibility
+from .interactions import compatibility
 
 #: Status codes of :func:`row_search` (0 = a peak was found and passed the back search).
 FOUND = 0

@@ -4,11 +4,11 @@ and what match_stereo returns with it."""
 from __future__ import annotations
 
 import cv2
+import naive_guided as ng
 import numpy as np
 import pytest
 
 import hopmatch
-import naive_guided as ng
 from hopmatch._kernels import guided as _k
 from hopmatch.feature.descriptor import gradient_windows
 from hopmatch.matching.guided import GUIDED_MIN_ZNCC, GUIDED_RADIUS, guided_pass

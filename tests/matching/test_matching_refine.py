@@ -4,10 +4,10 @@ synthetic sub-pixel shifts of noise-free textures."""
 from __future__ import annotations
 
 import cv2
+import naive_guided as ng
 import numpy as np
 import pytest
 
-import naive_guided as ng
 from hopmatch.errors import InvalidArgumentError
 from hopmatch.matching.refine import (
     REFINE_ITERATIONS,
