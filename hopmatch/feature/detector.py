@@ -113,9 +113,15 @@ class DericheMoravecDetector(Configurable):
         """The float32 image G that points and descriptors are measured on (SPEC section 1),
         of ``image`` checked (``max_pixels`` included) and converted to grey; errors name
         ``name``."""
+        return self.gray_and_feature_image(image, name)[1]
+
+    def gray_and_feature_image(self, image, name: str = "image"):
+        """``(grey, G)``: ``image`` checked (``max_pixels`` included) and converted to grey
+        (:func:`~hopmatch._validate.as_gray_image`; it may be ``image`` itself), and the
+        feature image G of :meth:`feature_image`; errors name ``name``."""
         p = self._params
         gray = as_gray_image(image, name, max_pixels=p["max_pixels"])
-        return feature_image(gray, p["on"], p["alpha"], p["omega"], name)
+        return gray, feature_image(gray, p["on"], p["alpha"], p["omega"], name)
 
     def points_on(self, g: np.ndarray, mask=None, mask_name: str = "mask"):
         """Moravec points (eqs. 1-2) of the feature image ``g``: ``(points (N, 2) float32
@@ -161,9 +167,7 @@ class DericheMoravecDetector(Configurable):
             :func:`~hopmatch._validate.as_gray_image` returns it; it may be ``image``
             itself), for steps that work on grey levels (the sub-pixel refinement).
         """
-        p = self._params
-        gray = as_gray_image(image, name, max_pixels=p["max_pixels"])
-        g = feature_image(gray, p["on"], p["alpha"], p["omega"], name)
+        gray, g = self.gray_and_feature_image(image, name)
         pts, resp = self.points_on(g, mask, mask_name)
         keep, desc = self.describe_points(g, pts)
         out = (np.compress(keep, pts, axis=0), resp[keep], desc, g)

@@ -228,6 +228,28 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     pts_r, resp_r, desc_r, g_r, gray_r = detector.detect_and_describe(
         right, mask_right, name="right", mask_name="mask_right", keep_gray=True)
     t2 = time.perf_counter()
+    return match_detected((pts_l, resp_l, desc_l, g_l, gray_l),
+                          (pts_r, resp_r, desc_r, g_r, gray_r), config,
+                          keypoint_size=float(detector.getWindowSize()),
+                          fundamental=fundamental, record_energy=record_energy,
+                          timings={"detect_left": t1 - t0, "detect_right": t2 - t1})
+
+
+def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
+                   fundamental=None, record_energy: bool = False,
+                   timings: dict | None = None) -> StereoMatchResult:
+    """The matching half of :func:`match_stereo`, on what detection gave for each image.
+
+    ``left`` and ``right`` are ``(points, responses, descriptors, gradient, grey)`` as
+    :meth:`DericheMoravecDetector.detect_and_describe` returns them with ``keep_gray=True``
+    (points may come from elsewhere, described on that detector's gradient); ``config``
+    the matcher's parameters; ``fundamental`` None or a checked 3 x 3 matrix. Runs the
+    network, then (rectified pairs of one size) the guided pass and the refinement.
+    """
+    pts_l, resp_l, desc_l, g_l, gray_l = left
+    pts_r, resp_r, desc_r, g_r, gray_r = right
+    timings = dict(timings or {})
+    t2 = time.perf_counter()
     shape_l, shape_r = g_l.shape, g_r.shape
     if fundamental is None and shape_l[0] != shape_r[0]:
         raise InvalidArgumentError(
@@ -247,11 +269,11 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     net = match_pair(pair, desc_l, desc_r, config, fundamental=fundamental,
                      record_energy=record_energy, descriptors_checked=True)
     t3 = time.perf_counter()
-    timings = {"detect_left": t1 - t0, "detect_right": t2 - t1, "match": t3 - t2}
+    timings["match"] = t3 - t2
     result = StereoMatchResult(
         points_left=pts_l, points_right=pts_r, responses_left=resp_l, responses_right=resp_r,
         query_idx=net.query_idx, train_idx=net.train_idx, distances=net.distances,
-        network=net, keypoint_size=float(detector.getWindowSize()), timings=timings,
+        network=net, keypoint_size=keypoint_size, timings=timings,
         match_timings={"network": t3 - t2, "guided": 0.0, "refine": 0.0},
     )
     if fundamental is None and shape_l == shape_r and len(net.query_idx):

@@ -12,8 +12,7 @@ import cv2 as cv
 import numpy as np
 
 import hopmatch
-from hopmatch.errors import InvalidArgumentError
-from hopmatch.matching.stereo_match import split_parameters, stereo_pipeline
+from hopmatch.matching.stereo_match import match_detected, split_parameters, stereo_pipeline
 
 from .ops import GDetect, GMatch, GMatchPoints
 
@@ -37,22 +36,17 @@ def _points(pts) -> np.ndarray:
 
 
 def _describe_and_match(detector, matcher, left, pts_left, right, pts_right):
-    """The describe + match half of :func:`hopmatch.match_stereo`, on given points."""
-    gl, gr = detector.feature_image(left, "left"), detector.feature_image(right, "right")
-    if gl.shape[0] != gr.shape[0]:
-        raise InvalidArgumentError(
-            f"`left` and `right` must have the same height (a rectified pair), got "
-            f"{gl.shape[0]} and {gr.shape[0]}"
-        )
+    """The describe + match half of :func:`hopmatch.match_stereo`, on given points
+    (:func:`hopmatch.matching.stereo_match.match_detected`, the same code)."""
     described = []
-    for g, pts in ((gl, pts_left), (gr, pts_right)):
+    for image, pts, name in ((left, pts_left, "left"), (right, pts_right, "right")):
+        gray, g = detector.gray_and_feature_image(image, name)
         keep, desc = detector.describe_points(g, pts)
-        described.append((pts[keep], desc))
-    (pl, dl), (pr, dr) = described
-    matcher.setPairInfo(pl, pr, gl.shape[::-1], gr.shape[::-1])
-    net = matcher.run(dl, dr)
-    ml, mr = pl[net.query_idx], pr[net.train_idx]
-    return ml, mr, (ml[:, 0] - mr[:, 0]).astype(np.float32)
+        kept = np.compress(keep, pts, axis=0)
+        described.append((kept, np.zeros(len(kept), np.float32), desc, g, gray))
+    res = match_detected(described[0], described[1], matcher.config(),
+                         keypoint_size=float(detector.getWindowSize()))
+    return res.matched_left, res.matched_right, res.disparities
 
 
 def kernels(**params) -> "cv.GKernelPackage":
