@@ -5,11 +5,59 @@ importing them (issue 19, point 2), and the install extras bring what each plugi
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+LAZY = ("stereo", "datasets", "evaluate", "viz", "compare", "cli", "imageio")
+
+
+def _python(code: str) -> str:
+    res = subprocess.run([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    return res.stdout
+
+
+# --------------------------------------------------------------------------------------
+# Submodules reachable from `import hopmatch`, imported on first use
+# --------------------------------------------------------------------------------------
+
+
+def test_submodules_are_reachable_from_the_package():
+    """What the warnings and the docs write (``hopmatch.stereo.rectify``) works after a
+    bare ``import hopmatch``, in a fresh interpreter."""
+    out = _python(
+        "import hopmatch\n"
+        "print(hopmatch.stereo.rectify.__name__, hopmatch.datasets.load.__name__,\n"
+        "      hopmatch.evaluate.score_matches.__name__, hopmatch.viz.draw_matches.__name__,\n"
+        "      hopmatch.compare.METHODS is not None, hopmatch.cli.main.__name__,\n"
+        "      hopmatch.imageio.read_image.__name__)\n")
+    assert out.split() == ["rectify", "load", "score_matches", "draw_matches", "True", "main",
+                           "read_image"]
+
+
+def test_import_does_not_load_the_lazy_submodules():
+    out = _python("import sys, hopmatch\n"
+                  f"print([m for m in {LAZY!r} if 'hopmatch.' + m in sys.modules])\n")
+    assert out.strip() == "[]"
+
+
+def test_lazy_submodules_are_listed_and_unknown_names_still_fail():
+    import hopmatch
+
+    assert set(LAZY) <= set(dir(hopmatch))
+    assert set(LAZY) == set(hopmatch.LAZY_SUBMODULES)
+    with pytest.raises(AttributeError, match="has no attribute 'stereoo'"):
+        hopmatch.stereoo  # noqa: B018
+    # the names of today still import from where they import today
+    from hopmatch.stereo import rectify
+    from hopmatch.viz import write_text_atomic
+
+    assert hopmatch.stereo.rectify is rectify and callable(write_text_atomic)
 
 
 # --------------------------------------------------------------------------------------
