@@ -23,7 +23,7 @@ from __future__ import annotations
 import importlib
 from importlib.metadata import PackageNotFoundError, version
 
-from . import errors, feature, matching
+from . import errors
 from .feature import (
     DericheMoravecDetector,
     deriche_gradient,
@@ -38,6 +38,7 @@ from .matching import (
     hopfield_match,
     match_stereo,
 )
+from .stereo_matcher import StereoHopfield
 
 try:
     __version__ = version("hopmatch")
@@ -51,6 +52,7 @@ __all__ = [
     "DericheMoravecDetector",
     "HopfieldMatcher",
     "NetworkResult",
+    "StereoHopfield",
     "StereoMatchResult",
     "hopfield_match",
     "match_stereo",
