@@ -43,21 +43,29 @@ def _match_table(result, fmt: str) -> str:
                          result.distances, fmt)
 
 
-def _draw_match_images(outputs, left, right, result, correct=None, known=None,
-                       max_disparity=None):
+#: How many matches figure7.png numbers at most (a spread-out subset beyond): the paper's
+#: Figure 7 shows 33, and thousands of labels would cover one another.
+FIGURE7_LABELS = 60
+
+
+def _draw_match_images(outputs, left, right, result, correct=None, known=None):
+    """matches.png (a spread-out subset of the matches as lines, every match as a dot,
+    coloured by disparity, with a caption) and disparity.png (the left image's matched
+    keypoints coloured by disparity, with a colour bar in pixels): hopmatch.viz.overview."""
     status("drawing matches")
-    pic = viz.draw_matches(left, right, result.points_left, result.points_right,
-                           np.stack([result.query_idx, result.train_idx], axis=1),
-                           correct, known=known)
-    outputs.add_image("matches.png", pic)
+    pairs = np.stack([result.query_idx, result.train_idx], axis=1)
+    outputs.add_image("matches.png", viz.draw_match_overview(
+        left, right, result.points_left, result.points_right, pairs, result.disparities,
+        correct=correct, known=known))
     status("drawing disparities")
-    disp = viz.draw_disparity(left, result.matched_left, result.disparities, max_disparity)
-    outputs.add_image("disparity.png", disp)
+    outputs.add_image("disparity.png", viz.draw_keypoint_disparities(
+        left, result.matched_left, result.disparities))
 
 
 def _draw_paper_figures(outputs, left, right, result, detector):
     """The paper's Figure 5 (points over the gradient image, each side) and Figure 7
-    (numbered matches), staged with the other outputs."""
+    (numbered matches, at most :data:`FIGURE7_LABELS` of them), staged with the other
+    outputs."""
     status("drawing the paper's figures")
     outputs.add_image("figure5_left.png",
                       viz.draw_keypoints_on_gradient(left, result.points_left, detector))
@@ -65,7 +73,7 @@ def _draw_paper_figures(outputs, left, right, result, detector):
                       viz.draw_keypoints_on_gradient(right, result.points_right, detector))
     outputs.add_image("figure7.png", viz.draw_labelled_matches(
         left, right, result.points_left, result.points_right,
-        np.stack([result.query_idx, result.train_idx], axis=1)))
+        np.stack([result.query_idx, result.train_idx], axis=1), max_labels=FIGURE7_LABELS))
 
 
 def _counts(result) -> dict:
@@ -101,9 +109,10 @@ def _say_times(ctx, result, t_match: float, t_warm: float) -> None:
 def demo(ctx, out):
     """Match the built-in motorcycle pair (Middlebury 2014, via scikit-image).
 
-    Writes matches.png (green: correct within 1 px of the ground truth, red: wrong,
-    grey: no ground truth), disparity.png, matches.csv and run.json into DIR, and prints
-    the counts, the precision and the time.
+    Writes matches.png (matches coloured by disparity, wrong ones - more than 1 px off
+    the ground truth - marked by magenta crosses), disparity.png (keypoints coloured by
+    disparity, with a colour bar), matches.csv and run.json into DIR, and prints the
+    counts, the precision and the time.
     """
     from ..datasets import load_motorcycle
 
@@ -214,9 +223,8 @@ def match(ctx, left, right, out, fmt, no_draw, plot_energy, figures, **params):
         t_match = time.perf_counter() - t0
         t1 = time.perf_counter()
         outputs.add_text(f"matches.{fmt}", _match_table(result, fmt))
-        max_disp = matcher.getMaxDisparity()
         if not no_draw:
-            _draw_match_images(outputs, img_l, img_r, result, max_disparity=max_disp)
+            _draw_match_images(outputs, img_l, img_r, result)
         if plot_energy:
             status("plotting the energy")
             outputs.add("energy.png", viz.render_energy(result.network.energy_trace, "png"))

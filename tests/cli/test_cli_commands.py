@@ -38,9 +38,11 @@ def test_demo(tmp_path):
     assert len(rows) == n_matches > 100
     table = np.array(rows, dtype=np.float64)
     np.testing.assert_allclose(table[:, 4], table[:, 0] - table[:, 2], atol=1e-3)
-    for name, width in (("matches.png", 2 * 741), ("disparity.png", 741)):
-        img = cv2.imread(str(out / name))
-        assert img is not None and img.shape == (500, width, 3), name
+    # the pictures of hopmatch.viz.overview: matches over a caption, keypoints beside a
+    # colour bar (80 px)
+    pic = cv2.imread(str(out / "matches.png"))
+    assert pic is not None and pic.shape[1:] == (2 * 741, 3) and pic.shape[0] > 500 + 40
+    assert cv2.imread(str(out / "disparity.png")).shape == (500, 741 + 80, 3)
     info = json.loads((out / "run.json").read_text())
     assert info["counts"]["matches"] == n_matches
     assert info["counts"]["correct_at_1px"] == int(correct)
@@ -66,8 +68,9 @@ def test_match_csv(pair, tmp_path):
     table = np.array(rows, dtype=np.float64)
     assert np.median(table[:, 4]) == pytest.approx(DISPARITY, abs=0.25)
     assert (table[:, 5] >= 0).all() and (table[:, 5] <= 1).all()
-    assert cv2.imread(str(out / "matches.png")).shape == (120, 320, 3)
-    assert cv2.imread(str(out / "disparity.png")).shape == (120, 160, 3)
+    pic = cv2.imread(str(out / "matches.png"))
+    assert pic.shape[1:] == (320, 3) and pic.shape[0] > 120 + 40  # a caption below
+    assert cv2.imread(str(out / "disparity.png")).shape == (120, 160 + 80, 3)
 
     info = json.loads((out / "run.json").read_text())
     assert info["command"] == "match"
@@ -125,7 +128,7 @@ def test_match_without_matches_writes_empty_tables(tmp_path):
         assert printed(res.stdout, "matches") == "0"
         if fmt == "csv":
             assert read_csv(out / "matches.csv") == (MATCH_FIELDS, [])
-            assert cv2.imread(str(out / "disparity.png")).shape == (60, 80, 3)
+            assert cv2.imread(str(out / "disparity.png")).shape == (60, 80 + 80, 3)
         else:
             assert json.loads((out / "matches.json").read_text()) == []
 
