@@ -1,10 +1,26 @@
 """hopmatch: sparse stereo matching with the 2D Hopfield network of Achour & Mahiddine (2002).
 
 The public face of the package. See ``docs/`` and ``README.md``.
+
+The classes and functions below are imported with the package; its submodules
+(:mod:`hopmatch.stereo`, :mod:`hopmatch.datasets`, :mod:`hopmatch.evaluate`,
+:mod:`hopmatch.viz`, :mod:`hopmatch.compare`, :mod:`hopmatch.cli`, :mod:`hopmatch.imageio`)
+are imported on first use (a module ``__getattr__``, PEP 562, as scikit-image does with
+``lazy_loader``): ``import hopmatch`` then ``hopmatch.stereo.rectify(...)`` works, and the
+import does not pay for modules a program never touches.
+
+Examples
+--------
+>>> import hopmatch
+>>> callable(hopmatch.stereo.rectify), hopmatch.datasets.MOTORCYCLE
+(True, 'motorcycle')
+>>> "viz" in dir(hopmatch)
+True
 """
 
 from __future__ import annotations
 
+import importlib
 from importlib.metadata import PackageNotFoundError, version
 
 from . import errors
@@ -22,16 +38,21 @@ from .matching import (
     hopfield_match,
     match_stereo,
 )
+from .stereo_matcher import StereoHopfield
 
 try:
     __version__ = version("hopmatch")
 except PackageNotFoundError:  # running from a source tree that was not installed
     __version__ = "0.0.0"
 
+#: Submodules imported on first attribute access (``hopmatch.stereo`` ...).
+LAZY_SUBMODULES = ("cli", "compare", "datasets", "evaluate", "imageio", "stereo", "viz")
+
 __all__ = [
     "DericheMoravecDetector",
     "HopfieldMatcher",
     "NetworkResult",
+    "StereoHopfield",
     "StereoMatchResult",
     "hopfield_match",
     "match_stereo",
@@ -42,6 +63,19 @@ __all__ = [
     "moravec_points",
     "moravec_response",
 ]
+
+
+def __getattr__(name: str):
+    """Import the submodule ``name`` of :data:`LAZY_SUBMODULES` on first access."""
+    if name in LAZY_SUBMODULES:
+        module = importlib.import_module(f"{__name__}.{name}")
+        globals()[name] = module  # the import system set it too; later lookups skip this
+        return module
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(LAZY_SUBMODULES))
 
 
 def warmup() -> float:

@@ -21,7 +21,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
-SHARED_EXAMPLES = ["stereo_calibration.py", "uncalibrated.py", "kitti_depth.py"]
+SHARED_EXAMPLES = ["stereo_calibration.py", "uncalibrated.py", "kitti_depth.py",
+                   "stereo_match.py"]
 ALL_EXAMPLES = ["feature_matching.py", *SHARED_EXAMPLES]
 
 
@@ -239,3 +240,27 @@ def test_kitti_depth(shared_data, tmp_path):
     assert has_gt.sum() == n_gt
     rel = np.abs(table[has_gt, 3] - table[has_gt, 4]) / table[has_gt, 4]
     assert np.median(rel) * 100 == pytest.approx(median, abs=0.05)
+
+
+# --------------------------------------------------------------------------------------
+# stereo_match.py (OpenCV's stereo_match flow with hopmatch.StereoHopfield)
+# --------------------------------------------------------------------------------------
+
+def test_stereo_match_writes_a_ply_of_the_matched_points(shared_data, tmp_path):
+    res = run_example("stereo_match.py", "--out", tmp_path, shared=shared_data)
+    stdout = ok(res)
+    lo, hi, unmatched = figure(stdout, r"^disparity: int16, 641x555, values (-?\d+)\.\.(\d+) "
+                                       r"\(x16; no match: (-?\d+)\)$")
+    assert lo == unmatched == 15 * 16 and hi <= 111 * 16
+    n_pixels, n_matches = figure(stdout, r"^matched pixels: (\d+) \((\d+) matches\)$")
+    assert n_matches >= n_pixels > 2000
+    (n_ply,) = figure(stdout, r"^PLY: .*, (\d+) vertices$")
+    assert n_ply == n_pixels
+    text = (tmp_path / "out.ply").read_text().splitlines()
+    assert f"element vertex {int(n_ply)}" in text
+    assert len(text) == text.index("end_header") + 1 + n_ply
+    n, p, scored = figure(stdout, r"^StereoHopfield: (\d+) pixels with a disparity, ([\d.]+)% of "
+                                  r"the (\d+) with ground truth within 1 px$")
+    assert n == n_pixels and scored > 0.9 * n and p >= 97.0
+    (sgbm,) = figure(stdout, r"^StereoSGBM \(the sample's line\): (\d+) pixels")
+    assert sgbm > n  # dense: nearly every pixel

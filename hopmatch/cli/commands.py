@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import click
 import cv2
@@ -20,7 +21,7 @@ from ..matching.stereo_match import match_stereo, stereo_pipeline
 from .group import cli
 from .options import given_parameters, param_labels, parameter_options
 from .outputs import Outputs, image_info, ms, read_image, run_json
-from .reporting import CLIError, guard, say, status
+from .reporting import CLIError, guard, one_line, say, status
 
 __all__ = ["demo", "detect", "match"]
 
@@ -43,21 +44,29 @@ def _match_table(result, fmt: str) -> str:
                          result.distances, fmt)
 
 
-def _draw_match_images(outputs, left, right, result, correct=None, known=None,
-                       max_disparity=None):
+#: How many matches figure7.png numbers at most (a spread-out subset beyond): the paper's
+#: Figure 7 shows 33, and thousands of labels would cover one another.
+FIGURE7_LABELS = 60
+
+
+def _draw_match_images(outputs, left, right, result, correct=None, known=None):
+    """matches.png (a spread-out subset of the matches as lines, every match as a dot,
+    coloured by disparity, with a caption) and disparity.png (the left image's matched
+    keypoints coloured by disparity, with a colour bar in pixels): hopmatch.viz.overview."""
     status("drawing matches")
-    pic = viz.draw_matches(left, right, result.points_left, result.points_right,
-                           np.stack([result.query_idx, result.train_idx], axis=1),
-                           correct, known=known)
-    outputs.add_image("matches.png", pic)
+    pairs = np.stack([result.query_idx, result.train_idx], axis=1)
+    outputs.add_image("matches.png", viz.draw_match_overview(
+        left, right, result.points_left, result.points_right, pairs, result.disparities,
+        correct=correct, known=known))
     status("drawing disparities")
-    disp = viz.draw_disparity(left, result.matched_left, result.disparities, max_disparity)
-    outputs.add_image("disparity.png", disp)
+    outputs.add_image("disparity.png", viz.draw_keypoint_disparities(
+        left, result.matched_left, result.disparities))
 
 
 def _draw_paper_figures(outputs, left, right, result, detector):
     """The paper's Figure 5 (points over the gradient image, each side) and Figure 7
-    (numbered matches), staged with the other outputs."""
+    (numbered matches, at most :data:`FIGURE7_LABELS` of them), staged with the other
+    outputs."""
     status("drawing the paper's figures")
     outputs.add_image("figure5_left.png",
                       viz.draw_keypoints_on_gradient(left, result.points_left, detector))
@@ -65,7 +74,7 @@ def _draw_paper_figures(outputs, left, right, result, detector):
                       viz.draw_keypoints_on_gradient(right, result.points_right, detector))
     outputs.add_image("figure7.png", viz.draw_labelled_matches(
         left, right, result.points_left, result.points_right,
-        np.stack([result.query_idx, result.train_idx], axis=1)))
+        np.stack([result.query_idx, result.train_idx], axis=1), max_labels=FIGURE7_LABELS))
 
 
 def _counts(result) -> dict:
@@ -82,6 +91,69 @@ def _counts(result) -> dict:
     }
 
 
+def _folder(ctx, param, value):
+    """``--out``: refuse an empty name (an unset shell variable would otherwise write into
+    the working directory)."""
+    if value is not None and not str(value).strip():
+        raise click.BadParameter("must name a folder, got an empty string", ctx, param)
+    return value
+
+
+def _labels(ctx, labels: dict) -> dict:
+    """``labels`` merged into the run's labels, so that warnings name the user's files and
+    options as errors do (:func:`~hopmatch.cli.reporting.cli_warnings`)."""
+    root = ctx.find_root().obj
+    if root is not None and "labels" in root:
+        root["labels"].update(labels)
+    return labels
+
+
+def _open(outputs, labels) -> None:
+    """``outputs.open()``, an OSError about the folder (a name too long...) as bad input."""
+    guard(None, {**labels, "": outputs.label}, outputs.open)
+
+
+def read_fundamental_matrix(path: str) -> np.ndarray:
+    """The 3 x 3 fundamental matrix of ``--fundamental-matrix FILE``: a text file of 9
+    numbers (``np.savetxt(FILE, F)``), a ``.npy`` file (``np.save``), or a ``cv2.FileStorage``
+    file (``.yml``/``.yaml``/``.xml``/``.json``) with a node ``F`` or ``fundamental_matrix``.
+
+    Raises :class:`CLIError` naming the file when it cannot be read or holds no 3 x 3
+    matrix (the matrix itself is checked by ``match_stereo``)."""
+    from ..imageio import os_reason
+
+    suffix = Path(path).suffix.lower()
+    try:
+        if not Path(path).is_file():
+            raise CLIError(path, "is a folder, not a file" if Path(path).is_dir()
+                           else "no such file")
+        if suffix in (".yml", ".yaml", ".xml", ".json"):
+            fs = cv2.FileStorage(path, cv2.FILE_STORAGE_READ)
+            try:
+                node = fs.getNode("F")
+                if node.empty():
+                    node = fs.getNode("fundamental_matrix")
+                value = None if node.empty() else node.mat()
+            finally:
+                fs.release()
+            if value is None:
+                raise CLIError(path, "holds no matrix named F or fundamental_matrix")
+        elif suffix == ".npy":
+            value = np.load(path, allow_pickle=False)
+        else:
+            value = np.loadtxt(path, dtype=np.float64, ndmin=1)
+    except CLIError:
+        raise
+    except OSError as exc:
+        raise CLIError(path, os_reason(exc) if exc.errno else str(exc)) from None
+    except (ValueError, cv2.error) as exc:
+        raise CLIError(path, f"is not a matrix file: {one_line(exc)[:200]}") from None
+    value = np.asarray(value, dtype=np.float64)
+    if value.size != 9:
+        raise CLIError(path, f"must hold the 9 numbers of a 3 x 3 matrix, got {value.size}")
+    return value.reshape(3, 3)
+
+
 def _say_times(ctx, result, t_match: float, t_warm: float) -> None:
     detect_ms = ms(result.timings["detect_left"] + result.timings["detect_right"])
     say(ctx, f"time: {ms(t_match):.0f} ms (detection {detect_ms:.0f} ms, matching "
@@ -96,14 +168,15 @@ def _say_times(ctx, result, t_match: float, t_warm: float) -> None:
 
 @cli.command()
 @click.option("--out", "-o", default="hopmatch-demo", show_default=True, metavar="DIR",
-              help="Output folder (created if missing).")
+              callback=_folder, help="Output folder (created if missing).")
 @click.pass_context
 def demo(ctx, out):
     """Match the built-in motorcycle pair (Middlebury 2014, via scikit-image).
 
-    Writes matches.png (green: correct within 1 px of the ground truth, red: wrong,
-    grey: no ground truth), disparity.png, matches.csv and run.json into DIR, and prints
-    the counts, the precision and the time.
+    Writes matches.png (matches coloured by disparity, wrong ones - more than 1 px off
+    the ground truth - marked by magenta crosses), disparity.png (keypoints coloured by
+    disparity, with a colour bar), matches.csv and run.json into DIR, and prints the
+    counts, the precision and the time.
     """
     from ..datasets import load_motorcycle
 
@@ -111,7 +184,7 @@ def demo(ctx, out):
     status("loading the motorcycle pair")
     scene = load_motorcycle()
     outputs = Outputs(out)
-    outputs.open()
+    _open(outputs, {})
 
     def body():
         status("compiling the Numba kernels (cached after the first run)")
@@ -164,8 +237,14 @@ def demo(ctx, out):
 @cli.command()
 @click.argument("left", metavar="LEFT")
 @click.argument("right", metavar="RIGHT")
-@click.option("--out", "-o", required=True, metavar="DIR",
+@click.option("--out", "-o", required=True, metavar="DIR", callback=_folder,
               help="Output folder (created if missing; an existing one is reused).")
+@click.option("--fundamental-matrix", "fundamental_file", metavar="FILE", default=None,
+              help="Match an unrectified pair along the epipolar lines of this fundamental "
+                   "matrix (x_right^T F x_left = 0, as cv2.findFundamentalMat returns it): "
+                   "a text file of 9 numbers (np.savetxt), a .npy file, or a .yml/.xml/.json "
+                   "cv2.FileStorage file with a node F. LEFT and RIGHT may then differ in "
+                   "size.")
 @click.option("--format", "fmt", type=click.Choice(["csv", "json"]), default="csv",
               show_default=True, help="matches.csv or matches.json.")
 @click.option("--no-draw", is_flag=True, help="Do not write matches.png and disparity.png.")
@@ -176,8 +255,10 @@ def demo(ctx, out):
                    "(points over the gradient magnitude) and figure7.png (numbered matches).")
 @parameter_options(DericheMoravecDetector, HopfieldMatcher)
 @click.pass_context
-def match(ctx, left, right, out, fmt, no_draw, plot_energy, figures, **params):
-    """Match a rectified stereo pair LEFT RIGHT (image files of the same height).
+def match(ctx, left, right, out, fundamental_file, fmt, no_draw, plot_energy, figures,
+          **params):
+    """Match a rectified stereo pair LEFT RIGHT (image files of the same height), or an
+    unrectified one with --fundamental-matrix.
 
     Writes matches.csv (left_x,left_y,right_x,right_y,disparity,distance; or matches.json),
     matches.png and disparity.png (unless --no-draw), energy.png (--plot-energy),
@@ -186,23 +267,28 @@ def match(ctx, left, right, out, fmt, no_draw, plot_energy, figures, **params):
     """
     t_start = time.perf_counter()
     given = given_parameters(params, DericheMoravecDetector, HopfieldMatcher)
-    labels = {"": f"{left}, {right}", "left": left, "right": right,
-              **param_labels(DericheMoravecDetector, HopfieldMatcher)}
+    labels = _labels(ctx, {"": f"{left}, {right}", "left": left, "right": right,
+                           **param_labels(DericheMoravecDetector, HopfieldMatcher)})
     # configuration first: a bad combination fails before any file is touched
     detector, matcher = guard(None, labels, lambda: stereo_pipeline(given, "hopmatch match"))
+    fundamental = None
+    if fundamental_file is not None:
+        labels["fundamental_matrix"] = fundamental_file
+        fundamental = read_fundamental_matrix(fundamental_file)
     if plot_energy:
         import importlib.util
 
         if importlib.util.find_spec("matplotlib") is None:
             raise CLIError("--plot-energy", "needs matplotlib: pip install hopmatch[all]")
     status("reading the images")
-    img_l, img_r = read_image(left), read_image(right)
-    if img_l.shape[0] != img_r.shape[0]:
+    img_l, img_r = guard(None, labels, lambda: (read_image(left), read_image(right)))
+    if fundamental is None and img_l.shape[0] != img_r.shape[0]:
         raise CLIError(right, f"height {img_r.shape[0]} differs from the height of {left} "
-                              f"({img_l.shape[0]}); LEFT and RIGHT must be a rectified pair")
+                              f"({img_l.shape[0]}); LEFT and RIGHT must be a rectified pair "
+                              "(or give --fundamental-matrix FILE)")
     t_read = time.perf_counter() - t_start
     outputs = Outputs(out)
-    outputs.open()
+    _open(outputs, labels)
 
     def body():
         status("compiling the Numba kernels (cached after the first run)")
@@ -210,13 +296,12 @@ def match(ctx, left, right, out, fmt, no_draw, plot_energy, figures, **params):
         status("detecting and matching")
         t0 = time.perf_counter()
         result = match_stereo(img_l, img_r, record_energy=plot_energy, detector=detector,
-                              matcher=matcher)
+                              matcher=matcher, fundamental_matrix=fundamental)
         t_match = time.perf_counter() - t0
         t1 = time.perf_counter()
         outputs.add_text(f"matches.{fmt}", _match_table(result, fmt))
-        max_disp = matcher.getMaxDisparity()
         if not no_draw:
-            _draw_match_images(outputs, img_l, img_r, result, max_disparity=max_disp)
+            _draw_match_images(outputs, img_l, img_r, result)
         if plot_energy:
             status("plotting the energy")
             outputs.add("energy.png", viz.render_energy(result.network.energy_trace, "png"))
@@ -231,6 +316,8 @@ def match(ctx, left, right, out, fmt, no_draw, plot_energy, figures, **params):
             parameters={"given": dict(given),
                         "detector": detector.get_params(), "matcher": matcher.get_params(),
                         "max_disparity_used": used, "record_energy": plot_energy,
+                        "fundamental_matrix": (None if fundamental is None
+                                               else fundamental.tolist()),
                         "format": fmt, "draw": not no_draw, "figures": figures},
             counts=counts,
             energy=float(result.network.energy),
@@ -259,7 +346,7 @@ def match(ctx, left, right, out, fmt, no_draw, plot_energy, figures, **params):
 
 @cli.command()
 @click.argument("image", metavar="IMAGE")
-@click.option("--out", "-o", required=True, metavar="DIR",
+@click.option("--out", "-o", required=True, metavar="DIR", callback=_folder,
               help="Output folder (created if missing; an existing one is reused).")
 @click.option("--no-draw", is_flag=True, help="Do not write keypoints.png.")
 @parameter_options(DericheMoravecDetector)
@@ -272,12 +359,12 @@ def detect(ctx, image, out, no_draw, **params):
     """
     t_start = time.perf_counter()
     given = given_parameters(params, DericheMoravecDetector)
-    labels = {"": image, "image": image, **param_labels(DericheMoravecDetector)}
+    labels = _labels(ctx, {"": image, "image": image, **param_labels(DericheMoravecDetector)})
     detector = guard(None, labels, lambda: DericheMoravecDetector(**given))
     status("reading the image")
-    img = read_image(image)
+    img = guard(None, labels, lambda: read_image(image))
     outputs = Outputs(out)
-    outputs.open()
+    _open(outputs, labels)
 
     def body():
         status("detecting")

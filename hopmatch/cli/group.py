@@ -1,5 +1,7 @@
 """The ``hopmatch`` command group: global options (``--version``, ``--quiet``,
-``--debug``) and the commands that live in plugins, imported when first used."""
+``--debug``), warnings shown as one line each for the whole run
+(:func:`~hopmatch.cli.reporting.cli_warnings`), and the commands that live in plugins,
+imported when first used (their help in plain text)."""
 
 from __future__ import annotations
 
@@ -7,8 +9,11 @@ import importlib
 
 import click
 
+from ..feature.detector import DericheMoravecDetector
+from ..matching.matcher import HopfieldMatcher
+from .options import param_labels
 from .outputs import versions
-from .reporting import status
+from .reporting import cli_warnings, plain_text, status
 
 __all__ = ["PluginGroup", "cli"]
 
@@ -43,7 +48,18 @@ class PluginGroup(click.Group):
                 raise click.UsageError(
                     f"`hopmatch {name}` needs its plugin: pip install '{extra}' ({exc})"
                 ) from None
+            _plain_help(cmd)
         return cmd
+
+
+def _plain_help(cmd: click.Command) -> None:
+    """A plugin command's help and its options' help in plain text (:func:`plain_text`)."""
+    labels = param_labels(DericheMoravecDetector, HopfieldMatcher)
+    if cmd.help:
+        cmd.help = "\n\n".join(plain_text(par, labels) for par in cmd.help.split("\n\n"))
+    for param in cmd.params:
+        if getattr(param, "help", None):
+            param.help = plain_text(param.help, labels)
 
 
 @click.group(cls=PluginGroup,
@@ -59,6 +75,9 @@ def cli(ctx, quiet, debug):
     Hopfield network (Achour & Mahiddine, 2002).
 
     Run 'hopmatch demo' for a first look, 'hopmatch COMMAND --help' for the options.
+    Warnings are one line each on stderr, 'hopmatch: warning: ...', even with --quiet.
     """
-    ctx.obj = {"quiet": quiet, "debug": debug}
+    labels = param_labels(DericheMoravecDetector, HopfieldMatcher)
+    ctx.obj = {"quiet": quiet, "debug": debug, "labels": labels}
     status.quiet = quiet
+    ctx.with_resource(cli_warnings(labels, debug))

@@ -11,7 +11,7 @@ from __future__ import annotations
 import click
 
 from ..feature.detector import DericheMoravecDetector
-from .reporting import strip_name
+from .reporting import plain_text, strip_name
 
 __all__ = ["NONE", "ParamType", "given_parameters", "option_name", "param_labels",
            "parameter_options"]
@@ -74,14 +74,17 @@ def _unique_specs(*classes):
     return list(seen.values())
 
 
-def _help(spec, cls) -> str:
+def _help(spec, cls, labels: dict) -> str:
+    """The option's help: the parameter's ``doc`` as plain text (parameter names written as
+    options), then ``[owner; default X]``."""
     shown = "None" if spec.default is None else repr(spec.default)
     if spec.name == "preset":
-        text = ("Named parameter set of detector and matcher; explicit options win "
-                f"[default {shown}")
+        text = ("Named parameter set of detector and matcher: 'paper' gives the paper's "
+                f"section 4 settings; explicit options win [default {shown}")
     else:
         owner = "detector" if cls is DericheMoravecDetector else "matcher"
-        text = (spec.doc.rstrip(".") + ". " if spec.doc else "") + f"[{owner}; default {shown}"
+        doc = plain_text(spec.doc, labels).rstrip(".") if spec.doc else ""
+        text = (doc + ". " if doc else "") + f"[{owner}; default {shown}"
     if spec.kind != "bool" and spec.optional:
         text += "; 'none' for None"
     return text + "]"
@@ -96,9 +99,11 @@ def parameter_options(*classes):
     first class that has it. A ``bool`` parameter is a flag pair ``--name/--no-name``.
     """
 
+    labels = param_labels(*classes)
+
     def decorate(func):
         for spec, cls in reversed(_unique_specs(*classes)):
-            text = _help(spec, cls)
+            text = _help(spec, cls, labels)
             if spec.kind == "bool":
                 name = spec.name.replace("_", "-")
                 opt = click.option(f"--{name}/--no-{name}", spec.name, default=None, help=text)

@@ -1,22 +1,32 @@
-"""What the command line tells the user: the status line, the summary, and errors.
+"""What the command line tells the user: the status line, the summary, warnings and errors.
 
 Every bad input ends as one :class:`CLIError` (``<where>: <problem>``, where = the option or
 file the user typed). Errors of the library are translated by :func:`explain`: through
 their :attr:`~hopmatch.errors.HopmatchError.argument` when they carry one, else by finding
-the argument names quoted in their message.
+the argument names quoted in their message. An ``OSError`` about a file (a name too long, a
+loop of links...) is bad input too.
+
+Warnings of the library are printed as one line each, ``hopmatch: warning: <message>``
+(:func:`cli_warnings`), with the advice they give in Python terms (``max_vertical=1``,
+``setFundamentalMatrix(F)``) put in the command line's (``--max-vertical 1``,
+``--fundamental-matrix FILE``): :func:`cli_text`. Help texts come from docstrings and go
+through :func:`plain_text` (no Sphinx roles, no backticks).
 """
 
 from __future__ import annotations
 
+import contextlib
 import re
 import sys
+import warnings
 
 import click
 
-from ..errors import HopmatchError
+from ..errors import HopmatchError, HopmatchWarning
 
-__all__ = ["CLIError", "EXIT_BAD_INPUT", "EXIT_INTERNAL", "Status", "click_error", "explain",
-           "guard", "one_line", "say", "status", "strip_name"]
+__all__ = ["CLIError", "CLI_ADVICE", "EXIT_BAD_INPUT", "EXIT_INTERNAL", "Status",
+           "cli_text", "cli_warnings", "click_error", "explain", "guard", "one_line",
+           "plain_text", "say", "status", "strip_name", "warning_line"]
 
 #: Exit status of bad input (as click's usage errors) and of unexpected failures.
 EXIT_BAD_INPUT = 2
@@ -75,6 +85,112 @@ def say(ctx: click.Context, text: str = "") -> None:
 
 def one_line(text: str) -> str:
     return " ".join(str(text).split())
+
+
+# --------------------------------------------------------------------------------------
+# Plain text: docstrings and library messages as the command line shows them
+# --------------------------------------------------------------------------------------
+
+_ROLE = re.compile(r":[a-z]+(?::[a-z]+)?:`([^`]*)`")
+
+
+def _role_text(match: re.Match) -> str:
+    target = match.group(1)
+    named = re.match(r"^(.*?)\s*<[^>]*>$", target)  # :role:`text <target>`
+    if named:
+        return named.group(1)
+    if target.startswith("~"):
+        return target[1:].rsplit(".", 1)[-1]
+    return target.lstrip("!")
+
+
+def plain_text(text: str, labels: dict | None = None) -> str:
+    """``text`` (numpydoc / Sphinx) as plain text, for ``--help`` and messages.
+
+    ``:func:`~hopmatch.feature.moravec_response``` becomes ``moravec_response`` (as Sphinx
+    shows it), ``:class:`hopmatch.errors.X``` ``hopmatch.errors.X``, ````x```` ``x``; with
+    ``labels`` (``{parameter name: option}``), parameter names are written as their
+    options (``window_sigma > 0`` -> ``--window-sigma > 0``). Whitespace is collapsed.
+
+    Examples
+    --------
+    >>> plain_text("see :func:`~hopmatch.feature.moravec_response` and ``docs/x.md``")
+    'see moravec_response and docs/x.md'
+    >>> plain_text("about 20 more with ``window_sigma > 0``", {"window_sigma": "--window-sigma"})
+    'about 20 more with --window-sigma > 0'
+    """
+    out = _ROLE.sub(_role_text, str(text)).replace("``", "")
+    out = re.sub(r"(?<!`)`([^`]+)`(?!`)", r"\1", out)
+    for name, label in (labels or {}).items():
+        if "_" in name and label.startswith("--"):
+            out = re.sub(_bare(name), label, out)
+    return one_line(out)
+
+
+#: Python advice of the library's warnings, and what to do on the command line instead
+#: (applied in order by :func:`cli_text`; the generic names come last).
+CLI_ADVICE = (
+    ("rectify the pair (hopmatch.stereo.rectify) or call setFundamentalMatrix(F)",
+     "rectify the images first (cv2.stereoRectify and cv2.remap, with the calibration) or "
+     "give the pair's fundamental matrix with --fundamental-matrix FILE"),
+    ("rectify the pair first or call setFundamentalMatrix(F)",
+     "rectify the images first (cv2.stereoRectify and cv2.remap), or give the pair's "
+     "fundamental matrix with --fundamental-matrix FILE"),
+    ("rectify them (hopmatch.stereo.rectify or rectify_uncalibrated) or give their "
+     "fundamental matrix (setFundamentalMatrix(F))",
+     "rectify them first (cv2.stereoRectify with a calibration, "
+     "cv2.stereoRectifyUncalibrated without) or give their fundamental matrix with "
+     "--fundamental-matrix FILE"),
+    ("setFundamentalMatrix(F)", "--fundamental-matrix FILE"),
+    ("fundamental_matrix=F", "--fundamental-matrix FILE"),
+    ("hopmatch.stereo.rectify_uncalibrated", "cv2.stereoRectifyUncalibrated"),
+    ("hopmatch.stereo.rectify", "cv2.stereoRectify and cv2.remap"),
+    ("DericheMoravecDetector.create(", "("),
+)
+
+
+def cli_text(message: str, labels: dict) -> str:
+    """A library message in command-line terms: :data:`CLI_ADVICE` applied, then every
+    name of ``labels`` (parameters -> options, ``left``/``right`` -> the files) written as
+    the user typed it, ``name=value`` as ``--name value``; on one line."""
+    out = one_line(message)
+    for python, cli in CLI_ADVICE:
+        out = out.replace(python, cli)
+    for name, label in labels.items():
+        if not name:
+            continue
+        if label.startswith("--"):
+            out = re.sub(rf"(?<![\w`-]){re.escape(name)}=(?=[^\s=])", f"{label} ", out)
+        out = out.replace(f"`{name}`", label)
+        if "_" in name and label.startswith("--"):
+            out = re.sub(_bare(name), label, out)
+    return out
+
+
+def warning_line(message, category, labels: dict, where: str = "") -> str:
+    """``hopmatch: warning: <message in CLI terms>``; warnings of other libraries keep
+    their category's name; ``where`` (``file:line``, with --debug) is appended."""
+    text = cli_text(str(message), labels)
+    if not issubclass(category, HopmatchWarning):
+        text = f"{category.__name__}: {text}"
+    return f"hopmatch: warning: {text}" + (f" ({category.__name__} at {where})" if where
+                                           else "")
+
+
+@contextlib.contextmanager
+def cli_warnings(labels: dict, debug: bool = False):
+    """Show every warning raised inside as one :func:`warning_line` on stderr (after
+    clearing the status line), instead of Python's ``file:line: Category: message`` and
+    source line. ``labels`` is read when a warning comes, so that a command can add its
+    files to it; the warning filters in force (``-W``, ``PYTHONWARNINGS``) still apply."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        status.clear()
+        where = f"{filename}:{lineno}" if debug else ""
+        click.echo(warning_line(message, category, labels, where), err=True)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
 
 
 # --------------------------------------------------------------------------------------
@@ -152,9 +268,20 @@ def is_input_error(exc) -> bool:
     return isinstance(exc, HopmatchError)
 
 
+def os_error(exc: OSError, labels: dict) -> CLIError:
+    """An ``OSError`` about a file the user named (a name too long, a loop of links, no
+    permission...) as a :class:`CLIError` naming that file as the user typed it."""
+    from ..imageio import os_reason
+
+    name = exc.filename if exc.filename is not None else labels.get("", "input")
+    typed = {str(v): v for v in labels.values()}
+    return CLIError(typed.get(str(name), str(name)), os_reason(exc))
+
+
 def guard(outputs, labels: dict, body):
     """Run ``body()``; on any failure abort ``outputs`` (an :class:`Outputs` or None: this
-    run's files are removed) and translate library errors with :func:`explain`."""
+    run's files are removed) and translate library errors with :func:`explain` and errors
+    of the file system about a named file with :func:`os_error`."""
     try:
         return body()
     except BaseException as exc:
@@ -163,6 +290,8 @@ def guard(outputs, labels: dict, body):
         if isinstance(exc, (HopmatchError, ValueError, TypeError)) and not isinstance(
                 exc, CLIError) and is_input_error(exc):
             raise explain(exc, labels) from exc
+        if isinstance(exc, OSError) and exc.filename is not None:
+            raise os_error(exc, labels) from exc
         raise
 
 

@@ -36,6 +36,7 @@ __all__ = [
     "load",
     "load_motorcycle",
     "load_scene",
+    "shared_data_candidates",
     "shared_data_dir",
 ]
 
@@ -383,11 +384,35 @@ def _default_name(folder: Path) -> str:
     return folder.name
 
 
-def shared_data_dir(must_exist: bool = True) -> Path | None:
-    """Where the shared stereo data is: ``$HOPMATCH_SHARED_DATA``, else ``../shared/data``.
+def shared_data_candidates() -> list[tuple[Path, str]]:
+    """The folders :func:`shared_data_dir` tries, in order, each with how it was found.
 
-    ``../shared/data`` is looked for beside the project root (the folder holding the
-    ``hopmatch`` package), then relative to the current directory.
+    ``$HOPMATCH_SHARED_DATA`` alone when it is set (an explicit setting wins, and is not
+    second-guessed by a folder that happens to lie nearby); else ``shared/data`` in the
+    current directory, ``../shared/data`` beside it, and, when hopmatch runs from a source
+    checkout (a ``pyproject.toml`` beside the package), ``../shared/data`` beside the
+    checkout. An installed hopmatch never looks inside its virtual environment.
+    """
+    env = os.environ.get(SHARED_DATA_ENV)
+    if env:
+        return [(Path(env), f"${SHARED_DATA_ENV}")]
+    cwd = Path.cwd()
+    out = [(cwd / "shared" / "data", "./shared/data"),
+           (cwd.parent / "shared" / "data", "../shared/data")]
+    if (_PROJECT_ROOT / "pyproject.toml").is_file():
+        beside = _PROJECT_ROOT.parent / "shared" / "data"
+        if all(beside.resolve() != c.resolve() for c, _ in out):
+            out.append((beside, "beside the source checkout"))
+    return out
+
+
+def shared_data_dir(must_exist: bool = True) -> Path | None:
+    """Where the shared stereo data is, looked for where a user keeps it.
+
+    ``$HOPMATCH_SHARED_DATA`` when set; otherwise ``shared/data`` in the current directory,
+    then ``../shared/data``, then ``../shared/data`` beside the source checkout when
+    hopmatch runs from one (:func:`shared_data_candidates`). The first folder that exists
+    is the answer.
 
     Parameters
     ----------
@@ -401,30 +426,31 @@ def shared_data_dir(must_exist: bool = True) -> Path | None:
     Raises
     ------
     InvalidArgumentError
-        ``must_exist`` and the folder is absent (the message says where it looked).
+        ``must_exist`` and the folder is absent: the message lists every place looked in
+        (absolute paths) and how to point hopmatch at the data.
 
     Examples
     --------
     >>> path = shared_data_dir(must_exist=False)   # None when the data is absent
-    >>> path is None or (path / "middlebury").is_dir()
+    >>> path is None or path.is_dir()
     True
     """
-    env = os.environ.get(SHARED_DATA_ENV)
-    if env:
-        candidates = [Path(env)]
-    else:
-        candidates = [_PROJECT_ROOT.parent / "shared" / "data",
-                      Path.cwd().parent / "shared" / "data"]
-    for c in candidates:
+    candidates = shared_data_candidates()
+    for c, _ in candidates:
         if c.is_dir():
             return c
     if not must_exist:
         return None
-    where = " or ".join(repr(str(c)) for c in candidates)
+    where = "; ".join(f"{how}: {str(c)!r}" for c, how in candidates)
+    if os.environ.get(SHARED_DATA_ENV):
+        hint = (f"{SHARED_DATA_ENV} is set but names no folder; point it at the folder "
+                "holding the scenes (middlebury/, aloe/, ...) or unset it to look in "
+                "./shared/data and ../shared/data")
+    else:
+        hint = (f"put the data in shared/data under the current directory or beside it "
+                f"(../shared/data), or set {SHARED_DATA_ENV} to its folder")
     raise InvalidArgumentError(
-        f"the shared stereo data folder is absent (looked in {where}); put it at "
-        f"../shared/data beside the project or set {SHARED_DATA_ENV} to its path"
-    )
+        f"the shared stereo data folder is absent (looked in {where}); {hint}")
 
 
 def _scene_root(root) -> Path | None:

@@ -1,5 +1,5 @@
-"""What the matcher tells the user about the pair: the geometry warnings and the
-rectification check (docs/robustness.md, "Warnings")."""
+"""What the matcher tells the user about the pair: the geometry warnings, the
+rectification check and the stereo-pair check (docs/robustness.md, "Warnings")."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from .._warnings import warn
 from ..errors import (
     BudgetExceededError,
     DisparityRangeWarning,
+    HopmatchWarning,
     ImageSizeWarning,
     UnrectifiedPairWarning,
 )
@@ -29,6 +30,26 @@ RECTIFICATION_MAX_IN_BAND = 0.15
 #: The check runs only when the matches are fewer than this fraction of the keypoints (on
 #: the 13 shared scenes with ground truth the defaults keep 4.5 % (KITTI) to 48 %).
 RECTIFICATION_SUSPICIOUS = 0.03
+
+# Stereo-pair check: left points sampled, the 2-D window searched around each (rows and
+# disparities beyond the range), the distance a look-alike must be within (the default
+# similarity gate), and the fractions below which the pair is not called a stereo pair.
+# On the 13 shared scenes with ground truth at least 11 % of the sampled points have a clear
+# look-alike and 26 % one within the gate; rotated and shifted versions of them, swapped
+# pairs and the raw chessboard photos at least 2 % and 34 %; two unrelated scenes, or an
+# object beside a scene holding it rotated and scaled (find_obj.py's box pair), at most
+# 1 % and 14 %.
+STEREO_SAMPLE = 100
+STEREO_WINDOW = 64.0
+STEREO_LOOK_ALIKE = 0.45
+STEREO_MIN_CLEAR = 0.05
+STEREO_MIN_CLOSE = 0.2
+
+
+class NotStereoPairWarning(HopmatchWarning):
+    """The two images do not look like two views of one scene: almost no left point has a
+    look-alike anywhere near its row in the right image (see
+    :func:`stereo_pair_evidence`)."""
 
 
 def rectification_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity, max_vertical):
@@ -72,6 +93,40 @@ def rectification_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity, m
             float(np.mean(dy <= max(1.0, max_vertical))))
 
 
+def stereo_pair_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity):
+    """How much of the left image has a look-alike in the right one, searched in 2-D.
+
+    Up to :data:`STEREO_SAMPLE` left points (evenly spaced in the keypoint order) are
+    compared by the network's similarity distance with every right point within
+    :data:`STEREO_WINDOW` px of their row and of the disparity range (a window wide enough
+    for a pair that is not rectified). Returns ``(fraction with a clear best look-alike,
+    distance ratio to the second below RECTIFICATION_RATIO; fraction whose best look-alike
+    is within STEREO_LOOK_ALIKE; points sampled)``, or None when there is too little to
+    judge (fewer than 2 x RECTIFICATION_MIN_EVIDENCE points on a side, or more than
+    RECTIFICATION_MAX_PAIRS pairs to compare).
+    """
+    if min(len(q_pts), len(t_pts)) < 2 * RECTIFICATION_MIN_EVIDENCE:
+        return None
+    sample = np.unique(np.linspace(0, len(q_pts) - 1, min(len(q_pts), STEREO_SAMPLE))
+                       .astype(np.int64))
+    try:
+        ni, nk = candidate_pairs(np.ascontiguousarray(q_pts[sample]), t_pts,
+                                 min_disparity - STEREO_WINDOW, max_disparity + STEREO_WINDOW,
+                                 STEREO_WINDOW, RECTIFICATION_MAX_PAIRS)
+    except BudgetExceededError:
+        return None
+    if len(ni) == 0:
+        return 0.0, 0.0, len(sample)
+    sim = similarity_distance(np.ascontiguousarray(qd[sample]), td, ni, nk)
+    order = np.lexsort((sim, ni))
+    ni_o, sim_o = ni[order], sim[order]
+    first = np.flatnonzero(np.r_[True, ni_o[1:] != ni_o[:-1]])
+    two = np.diff(np.r_[first, len(ni_o)]) >= 2
+    clear = sim_o[first[two]] < RECTIFICATION_RATIO * sim_o[first[two] + 1]
+    close = sim_o[first] <= STEREO_LOOK_ALIKE
+    return float(clear.sum()) / len(sample), float(close.sum()) / len(sample), len(sample)
+
+
 def warn_geometry(query_size, train_size, fundamental, config) -> None:
     """Warn (:class:`~hopmatch.errors.ImageSizeWarning`) when a rectified pair's images
     differ in size, and (:class:`~hopmatch.errors.DisparityRangeWarning`) when the
@@ -93,18 +148,35 @@ def warn_geometry(query_size, train_size, fundamental, config) -> None:
 def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config) -> None:
     """Warn (:class:`~hopmatch.errors.UnrectifiedPairWarning`) when the network kept few
     matches (below :data:`RECTIFICATION_SUSPICIOUS` of the keypoints) and the clearest
-    look-alikes of the left points lie off their rows (:func:`rectification_evidence`);
-    rectified pairs with many matches do not pay for the check."""
+    look-alikes of the left points lie off their rows (:func:`rectification_evidence`), or
+    (:class:`NotStereoPairWarning`) when almost no left point has a look-alike anywhere
+    near its row (:func:`stereo_pair_evidence`): the images are not two views of one
+    scene. One warning at most; rectified pairs with many matches do not pay for either
+    check."""
     if n_matches >= RECTIFICATION_SUSPICIOUS * min(len(q_pts), len(t_pts)):
         return
-    if fundamental is not None or not len(qd) or not len(td):
+    if not len(qd) or not len(td):
         return
-    ev = rectification_evidence(q_pts, t_pts, qd, td, config.min_disparity,
-                                config.max_disparity, config.max_vertical)
-    if (ev is not None and ev[0] > max(2.0, 2.0 * config.max_vertical)
-            and ev[2] < RECTIFICATION_MAX_IN_BAND):
-        warn(f"the pair does not look rectified: the clearest look-alikes of {ev[1]} sampled "
-             f"left points lie a median {ev[0]:.1f} px above or below them (max_vertical="
-             f"{config.max_vertical:g}), so few true matches can be found; rectify the pair "
-             "(hopmatch.stereo.rectify) or call setFundamentalMatrix(F)",
-             UnrectifiedPairWarning)
+    if fundamental is None:
+        ev = rectification_evidence(q_pts, t_pts, qd, td, config.min_disparity,
+                                    config.max_disparity, config.max_vertical)
+        if (ev is not None and ev[0] > max(2.0, 2.0 * config.max_vertical)
+                and ev[2] < RECTIFICATION_MAX_IN_BAND):
+            warn(f"the pair does not look rectified: the clearest look-alikes of {ev[1]} "
+                 f"sampled left points lie a median {ev[0]:.1f} px above or below them "
+                 f"(max_vertical={config.max_vertical:g}), so few true matches can be found; "
+                 "rectify the pair (hopmatch.stereo.rectify) or call setFundamentalMatrix(F)",
+                 UnrectifiedPairWarning)
+            return
+    st = stereo_pair_evidence(q_pts, t_pts, qd, td, config.min_disparity,
+                              config.max_disparity)
+    if st is not None and st[0] < STEREO_MIN_CLEAR and st[1] < STEREO_MIN_CLOSE:
+        warn(f"the pair does not look like a stereo pair: of {st[2]} sampled left points "
+             f"{st[1]:.0%} have a look-alike within {STEREO_WINDOW:g} px of their row in the "
+             f"right image ({st[0]:.0%} a clear one; two views of one scene give 25 % or "
+             f"more), and {n_matches} matches were found; check that the two images show "
+             "the same scene from side by side, left image first. For two such views that "
+             "are not rectified, rectify them (hopmatch.stereo.rectify or "
+             "rectify_uncalibrated) or give their fundamental matrix (setFundamentalMatrix(F)"
+             "); to find an object in a scene (find_obj.py), use SIFT or ORB with "
+             "cv2.findHomography instead", NotStereoPairWarning)

@@ -11,32 +11,63 @@ from ..errors import InvalidArgumentError
 
 #: Parameter specs shared by :class:`HopfieldMatcher` and :func:`hopfield_match`.
 MATCHER_PARAMS: tuple[Param, ...] = (
-    Param("preset", "default", choice("default", "paper")),
+    Param("preset", "default", choice("default", "paper"), doc=(
+        "Named parameter set: 'paper' gives the settings of section 4 of Achour & "
+        "Mahiddine (2002), 'default' the tuned defaults (docs/parameters.md); explicit "
+        "parameters win")),
     # search window of the candidates (epipolar band + disparity range)
-    Param("min_disparity", 0.0, real()),
-    Param("max_disparity", None, real(optional=True)),
-    Param("max_vertical", 1.0, real(0.0)),
+    Param("min_disparity", 0.0, real(), doc=(
+        "Smallest disparity x_left - x_right searched, in pixels (may be negative)")),
+    Param("max_disparity", None, real(optional=True), doc=(
+        "Largest disparity searched, in pixels; None: a quarter of the left image's width")),
+    Param("max_vertical", 1.0, real(0.0), doc=(
+        "Half-height in pixels of the band of rows searched around each left point (with "
+        "a fundamental matrix: the largest distance to its epipolar line)")),
     # neighbourhood of interactions (paper: 40 x 20)
-    Param("neighbour_width", 40.0, real(0.0)),
-    Param("neighbour_height", 20.0, real(0.0)),
+    Param("neighbour_width", 40.0, real(0.0), doc=(
+        "Width in pixels of the window of left neighbours whose neurons interact (section "
+        "4; paper: 40)")),
+    Param("neighbour_height", 20.0, real(0.0), doc=(
+        "Height in pixels of that window of neighbours (paper: 20)")),
     # compatibility, eq. 5
-    Param("theta", 2.0, real(0.0)),
-    Param("slope", 2.0, real(0.0, lo_open=True)),
+    Param("theta", 2.0, real(0.0), doc=(
+        "Threshold theta of the compatibility, eq. 5, in pixels: neighbouring pairs whose "
+        "disparity, length and similarity differences add up to more than it inhibit each "
+        "other (paper: 10)")),
+    Param("slope", 2.0, real(0.0, lo_open=True), doc=(
+        "Slope lambda of the compatibility, eq. 5 (paper: 1)")),
     # similarity, eqs. 7-9, weighted into pixel units
-    Param("similarity_weight", 1.0, real(0.0)),
-    Param("similarity_gate", 0.45, real(0.0, optional=True)),
-    Param("max_candidates", 0, integer(0)),
+    Param("similarity_weight", 1.0, real(0.0), doc=(
+        "Pixels per unit of the normalised similarity distance in the compatibility (eq. "
+        "10)")),
+    Param("similarity_gate", 0.45, real(0.0, optional=True), doc=(
+        "Candidates whose normalised similarity distance exceeds it get no neuron (about "
+        "1 for unrelated windows); None: no gate, as in the paper")),
+    Param("max_candidates", 0, integer(0), doc=(
+        "Keep only this many most similar candidates of each left point (0: all)")),
     # energy, eq. 11
-    Param("input_bias", -2.5, real()),
-    Param("initial_bias", 1.0, real(optional=True)),
-    Param("uniqueness_weight", 1.0, real(0.0)),
+    Param("input_bias", -2.5, real(), doc=(
+        "External input I of the energy, eq. 11 (paper: 2)")),
+    Param("initial_bias", 1.0, real(optional=True), doc=(
+        "Annealing: run first with this input from the all-off state, then with "
+        "input_bias from that state; None: one run with input_bias (the paper)")),
+    Param("uniqueness_weight", 1.0, real(0.0), doc=(
+        "Weight of the uniqueness penalties of eq. 11 (one match per point)")),
     # dynamics, eqs. 12-13
-    Param("seed", 0, integer(0, 2**63 - 1)),
-    Param("stable_iterations", 0, integer(0)),
-    Param("max_iterations", 1_000_000, integer(1)),
+    Param("seed", 0, integer(0, 2**63 - 1), doc=(
+        "Seed of the random order in which the left points are visited (the same seed "
+        "gives the same matches)")),
+    Param("stable_iterations", 0, integer(0), doc=(
+        "Stop after this many iterations without a change (0: only at a fixed point; "
+        "paper: 200)")),
+    Param("max_iterations", 1_000_000, integer(1), doc=(
+        "Cap on the iterations (one iteration visits one left point)")),
     # disambiguation, section 4
-    Param("vertical_threshold", 1.0, real(0.0, lo_open=True)),
-    Param("cross_check", True, boolean()),
+    Param("vertical_threshold", 1.0, real(0.0, lo_open=True), doc=(
+        "Tolerance in pixels of the vertical disparity in section 4's disambiguation")),
+    Param("cross_check", True, boolean(), doc=(
+        "Keep only pairs that are the single choice from both sides (the left-right "
+        "check)")),
     # beyond the paper: section 4's vertical test for every kept pair, not only multiples
     Param("vertical_check", "all", choice("multiple", "all"), doc=(
         "SPEC section 4's vertical test: 'multiple' applies it only to points with several "
@@ -49,7 +80,9 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "robust plane a + b x + c y through the kept pairs (hopmatch.matching.vertical; "
         "the median when fewer than 50 pairs)")),
     # beyond the paper: reject matches whose windows align better one pixel off
-    Param("shift_check", True, boolean()),
+    Param("shift_check", True, boolean(), doc=(
+        "Reject matches whose descriptor windows align better one pixel off along the row "
+        "(docs/parameters.md)")),
     # beyond the paper: what match_stereo adds to the network's matches (it needs the
     # images, so HopfieldMatcher.match on descriptors alone does not do it)
     Param("guided", True, boolean(), doc=(
@@ -65,8 +98,12 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "the ZNCC of 7 x 7 grey windows along the row, by re-centred parabola fits "
         "(hopmatch.matching.refine)")),
     # resource budget
-    Param("max_neurons", 5_000_000, integer(1)),
-    Param("max_interactions", 100_000_000, integer(1)),
+    Param("max_neurons", 5_000_000, integer(1), doc=(
+        "Budget: most candidate pairs (neurons) allowed; more raise BudgetExceededError "
+        "before anything large is allocated")),
+    Param("max_interactions", 100_000_000, integer(1), doc=(
+        "Budget: most stored interactions (and neighbour pairs) allowed; more raise "
+        "BudgetExceededError before allocation")),
 )
 
 #: Values each preset sets (the rest keep their defaults). ``paper`` is section 4 of

@@ -8,6 +8,11 @@
   hopmatch[all]``), and pyplot's global state is never touched.
 - :mod:`hopmatch.viz.figures`: the paper's Figure 5 (:func:`draw_keypoints_on_gradient`)
   and Figure 7 (:func:`draw_labelled_matches`).
+- :mod:`hopmatch.viz.overview`: pictures of thousands of matches that read at 100 %
+  (:func:`draw_match_overview`: a spread-out subset of matches as lines, every match as a
+  dot, coloured by disparity, with a caption; :func:`draw_keypoint_disparities`: the left
+  image's keypoints coloured by disparity with a colour bar in pixels). The command line
+  writes these.
 
 Every drawing function returns a new uint8 BGR image, as ``cv2.imwrite`` expects; inputs
 may be grey or BGR(A), 8-bit, 16-bit or float (other depths are stretched to 0..255 for
@@ -39,13 +44,30 @@ from .._files import (  # noqa: F401 (kept importable from here: hopmatch.viz.wr
     write_temp,
     write_text_atomic,
 )
-from .draw import GREEN, GREY, RED, draw_disparity, draw_keypoints, draw_matches  # noqa: F401
+from .draw import (  # noqa: F401
+    GREEN,
+    GREY,
+    RED,
+    disparity_colours,
+    draw_disparity,
+    draw_keypoints,
+    draw_matches,
+)
 from .figures import (  # noqa: F401
     FIGURE_LABEL,
     FIGURE_OUTLINE,
     FIGURE_POINT,
     draw_keypoints_on_gradient,
     draw_labelled_matches,
+)
+from .overview import (  # noqa: F401
+    WRONG,
+    disparity_scale,
+    draw_colour_bar,
+    draw_keypoint_disparities,
+    draw_match_overview,
+    nice_ticks,
+    spread_subset,
 )
 from .plots import (  # noqa: F401
     ERROR_BINS,
@@ -59,9 +81,11 @@ from .plots import (  # noqa: F401
 
 __all__ = [
     "draw_disparity",
+    "draw_keypoint_disparities",
     "draw_keypoints",
     "draw_keypoints_on_gradient",
     "draw_labelled_matches",
+    "draw_match_overview",
     "draw_matches",
     "plot_energy",
     "plot_error_histogram",

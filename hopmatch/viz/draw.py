@@ -23,6 +23,7 @@ __all__ = [
     "RED",
     "as_display_image",
     "as_index_pairs",
+    "disparity_colours",
     "draw_disparity",
     "draw_keypoints",
     "draw_matches",
@@ -191,6 +192,17 @@ def draw_matches(left, right, kps_l, kps_r, matches, correct=None, *, known=None
     return out
 
 
+def disparity_colours(disparities, lo: float, hi: float) -> np.ndarray:
+    """``(N, 3)`` uint8 BGR colours of ``disparities`` on ``COLORMAP_TURBO``: ``lo`` dark
+    blue, ``hi`` dark red, values outside clipped."""
+    d = np.asarray(disparities, np.float64).reshape(-1)
+    if d.size == 0:
+        return np.zeros((0, 3), np.uint8)
+    scale = 255.0 / (hi - lo) if hi > lo else 0.0
+    levels = np.clip((d - lo) * scale, 0, 255).astype(np.uint8).reshape(-1, 1)
+    return cv2.applyColorMap(levels, cv2.COLORMAP_TURBO).reshape(-1, 3)
+
+
 def draw_disparity(left, points, disparities, max_disparity=None, *, radius: int = 2,
                    min_disparity: float = 0.0) -> np.ndarray:
     """Draw sparse disparities as coloured dots (``COLORMAP_TURBO``) over the grey left image.
@@ -241,9 +253,7 @@ def draw_disparity(left, points, disparities, max_disparity=None, *, radius: int
     hi = float(max_disparity) if max_disparity is not None else float(disp.max())
     if not np.isfinite(hi):
         raise InvalidArgumentError(f"`max_disparity` must be finite, got {max_disparity}")
-    scale = 255.0 / (hi - lo) if hi > lo else 0.0
-    levels = np.clip((disp - lo) * scale, 0, 255).astype(np.uint8).reshape(-1, 1)
-    colours = cv2.applyColorMap(levels, cv2.COLORMAP_TURBO).reshape(-1, 3).tolist()
+    colours = disparity_colours(disp, lo, hi).tolist()
     for (x, y), c in zip(np.rint(pts).astype(int).tolist(), colours):
         cv2.circle(gray, (x, y), int(radius), tuple(int(v) for v in c), -1, cv2.LINE_AA)
     return gray

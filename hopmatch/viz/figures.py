@@ -15,6 +15,7 @@ from .._validate import as_gray_image, as_points, describe
 from ..errors import InvalidArgumentError, InvalidTypeError
 from ..feature import DericheMoravecDetector, deriche_gradient
 from .draw import as_display_image, as_index_pairs
+from .overview import spread_subset
 
 __all__ = [
     "FIGURE_LABEL",
@@ -170,13 +171,17 @@ def _label(picture, text: str, x: int, y: int, font_scale: float, colour) -> Non
 
 def draw_labelled_matches(left, right, kps_l, kps_r, matches, *, draw_lines: bool = False,
                           font_scale: float = 0.35, color=FIGURE_POINT,
-                          label_color=FIGURE_LABEL, gap: int = 0) -> np.ndarray:
+                          label_color=FIGURE_LABEL, gap: int = 0,
+                          max_labels: int | None = None) -> np.ndarray:
     """The paper's Figure 7: both images side by side, each match numbered on both.
 
     Match ``n`` (counting from 1, in the order given) is drawn as a cross at its left
     point and at its right point, each labelled ``n`` with ``cv2.putText``, so that a pair
     can be checked by eye without lines crossing the picture. Every number is drawn after
-    every cross (and line), so no cross hides a number.
+    every cross (and line), so no cross hides a number. With more matches than
+    ``max_labels`` (the paper's figure has 33; thousands of labels overlap), only a subset
+    spread over the picture is drawn (:func:`~hopmatch.viz.overview.spread_subset`), still
+    numbered by its place in ``matches``.
 
     Parameters
     ----------
@@ -196,6 +201,8 @@ def draw_labelled_matches(left, right, kps_l, kps_r, matches, *, draw_lines: boo
         in black).
     gap : int
         Pixels of black between the two images, >= 0.
+    max_labels : int, optional
+        Draw at most this many matches (>= 1), spread over the rows; default all.
 
     Returns
     -------
@@ -244,6 +251,14 @@ def draw_labelled_matches(left, right, kps_l, kps_r, matches, *, draw_lines: boo
     offset = wl + gap
     colour = tuple(int(c) for c in color)
     text_colour = tuple(int(c) for c in label_color)
+    numbers = np.arange(1, len(pairs) + 1)
+    if max_labels is not None:
+        max_labels = int(max_labels)
+        if max_labels < 1:
+            raise InvalidArgumentError(f"`max_labels` must be >= 1, got {max_labels}")
+        if len(pairs) > max_labels:
+            keep = np.sort(spread_subset(kl[pairs[:, 0]], max_labels, hl))
+            pairs, numbers = pairs[keep], numbers[keep]
     ends_l = np.rint(kl[pairs[:, 0]]).astype(np.int64).tolist()
     ends_r = (np.rint(kr[pairs[:, 1]]).astype(np.int64) + [offset, 0]).tolist()
     ends = [(tuple(a), tuple(b)) for a, b in zip(ends_l, ends_r)]
@@ -253,7 +268,7 @@ def draw_labelled_matches(left, right, kps_l, kps_r, matches, *, draw_lines: boo
     for a, b in ends:
         for p in (a, b):
             cv2.drawMarker(picture, p, colour, cv2.MARKER_CROSS, _CROSS, 1, cv2.LINE_8)
-    for n, (a, b) in enumerate(ends, start=1):
+    for n, (a, b) in zip(numbers.tolist(), ends):
         _label(picture, str(n), a[0], a[1], font_scale, text_colour)
         _label(picture, str(n), b[0], b[1], font_scale, text_colour)
     return picture

@@ -28,3 +28,18 @@ def pair(tmp_path_factory):
     paths["empty"].write_bytes(b"")
     paths["folder"].mkdir()
     return paths
+
+
+@pytest.fixture(scope="module")
+def unrectified(tmp_path_factory):
+    """The random-texture pair with the right image also shifted down by 8 rows, and the
+    fundamental matrix of that shift (y_right = y_left + 8) as a text file:
+    (left, right, F file)."""
+    folder = tmp_path_factory.mktemp("unrectified")
+    rng = np.random.default_rng(1)
+    left = (rng.random((120, 160)) * 255).astype(np.uint8)
+    right = np.roll(np.roll(left, -DISPARITY, axis=1), 8, axis=0)
+    paths = (folder / "left.png", folder / "right.png", folder / "F.txt")
+    assert cv2.imwrite(str(paths[0]), left) and cv2.imwrite(str(paths[1]), right)
+    np.savetxt(paths[2], [[0, 0, 0], [0, 0, 1], [0, -1, -8]])
+    return paths

@@ -38,9 +38,11 @@ def test_demo(tmp_path):
     assert len(rows) == n_matches > 100
     table = np.array(rows, dtype=np.float64)
     np.testing.assert_allclose(table[:, 4], table[:, 0] - table[:, 2], atol=1e-3)
-    for name, width in (("matches.png", 2 * 741), ("disparity.png", 741)):
-        img = cv2.imread(str(out / name))
-        assert img is not None and img.shape == (500, width, 3), name
+    # the pictures of hopmatch.viz.overview: matches over a caption, keypoints beside a
+    # colour bar (80 px)
+    pic = cv2.imread(str(out / "matches.png"))
+    assert pic is not None and pic.shape[1:] == (2 * 741, 3) and pic.shape[0] > 500 + 40
+    assert cv2.imread(str(out / "disparity.png")).shape == (500, 741 + 80, 3)
     info = json.loads((out / "run.json").read_text())
     assert info["counts"]["matches"] == n_matches
     assert info["counts"]["correct_at_1px"] == int(correct)
@@ -66,8 +68,9 @@ def test_match_csv(pair, tmp_path):
     table = np.array(rows, dtype=np.float64)
     assert np.median(table[:, 4]) == pytest.approx(DISPARITY, abs=0.25)
     assert (table[:, 5] >= 0).all() and (table[:, 5] <= 1).all()
-    assert cv2.imread(str(out / "matches.png")).shape == (120, 320, 3)
-    assert cv2.imread(str(out / "disparity.png")).shape == (120, 160, 3)
+    pic = cv2.imread(str(out / "matches.png"))
+    assert pic.shape[1:] == (320, 3) and pic.shape[0] > 120 + 40  # a caption below
+    assert cv2.imread(str(out / "disparity.png")).shape == (120, 160 + 80, 3)
 
     info = json.loads((out / "run.json").read_text())
     assert info["command"] == "match"
@@ -125,7 +128,7 @@ def test_match_without_matches_writes_empty_tables(tmp_path):
         assert printed(res.stdout, "matches") == "0"
         if fmt == "csv":
             assert read_csv(out / "matches.csv") == (MATCH_FIELDS, [])
-            assert cv2.imread(str(out / "disparity.png")).shape == (60, 80, 3)
+            assert cv2.imread(str(out / "disparity.png")).shape == (60, 80 + 80, 3)
         else:
             assert json.loads((out / "matches.json").read_text()) == []
 
@@ -187,3 +190,98 @@ def test_detect_bad_image(pair, tmp_path, key):
     out = tmp_path / "out"
     assert_bad_input(run("detect", pair[key], "--out", out), str(pair[key]))
     assert not out.exists()
+
+
+# --------------------------------------------------------------------------------------
+# Unrectified pairs: --fundamental-matrix (the CLI form of setFundamentalMatrix)
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("form", ["txt", "npy", "yml"])
+def test_match_with_a_fundamental_matrix(unrectified, tmp_path, form):
+    left, right, f_txt = unrectified
+    F = np.loadtxt(f_txt)
+    path = tmp_path / f"F.{form}"
+    if form == "txt":
+        path = f_txt
+    elif form == "npy":
+        np.save(path, F)
+    else:
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+        fs.write("F", F)
+        fs.release()
+    out = tmp_path / "out"
+    res = run("match", left, right, "--out", out, "--max-disparity", 12,
+              "--fundamental-matrix", path)
+    assert res.returncode == 0, res.stderr
+    assert res.stderr == ""  # matched along the epipolar lines: nothing to warn about
+    n = int(printed(res.stdout, "matches"))
+    assert n > 300
+    _, rows = read_csv(out / "matches.csv")
+    table = np.array(rows, dtype=np.float64)
+    assert np.median(table[:, 3] - table[:, 1]) == pytest.approx(8, abs=0.25)
+    info = json.loads((out / "run.json").read_text())
+    assert np.allclose(info["parameters"]["fundamental_matrix"], F)
+    plain = run("match", left, right, "--out", tmp_path / "plain", "--max-disparity", 12)
+    assert int(printed(plain.stdout, "matches")) < n / 10
+
+
+def test_fundamental_matrix_lets_the_heights_differ(pair, unrectified, tmp_path):
+    res = run("match", pair["left"], pair["short"], "--out", tmp_path / "o",
+              "--fundamental-matrix", unrectified[2], "--max-disparity", 12)
+    assert res.returncode == 0, res.stderr
+
+
+BAD_F = [  # (file content, or None for a missing file; words of the message)
+    (None, "no such file"),
+    ("1 2 3\n", "9 numbers"),
+    ("not a matrix\n", "not a matrix file"),
+    ("0 0 0\n0 0 0\n0 0 0\n", "not all zeros"),
+]
+
+
+@pytest.mark.parametrize("content, words", BAD_F, ids=[w for _, w in BAD_F])
+def test_bad_fundamental_matrix_file_exits_2(pair, tmp_path, content, words):
+    path = tmp_path / "F.txt"
+    if content is not None:
+        path.write_text(content)
+    out = tmp_path / "out"
+    res = run("match", pair["left"], pair["right"], "--out", out, "--fundamental-matrix", path)
+    assert_bad_input(res, str(path), words)
+    assert not out.exists()
+
+
+# --------------------------------------------------------------------------------------
+# Exit status 2 for every bad input (issue 19, point 5)
+# --------------------------------------------------------------------------------------
+
+
+def test_file_names_too_long_are_bad_input(pair, tmp_path):
+    long_name = str(tmp_path / ("a" * 300 + ".png"))
+    assert_bad_input(run("match", long_name, pair["right"], "--out", tmp_path / "o"),
+                     "too long")
+    assert_bad_input(run("detect", long_name, "--out", tmp_path / "o"), "too long")
+    assert_bad_input(run("match", pair["left"], pair["right"], "--out",
+                         tmp_path / ("b" * 300)), "too long")
+
+
+@pytest.mark.parametrize("command", ["match", "detect", "demo"])
+def test_empty_output_folder_is_bad_input(pair, tmp_path, command):
+    args = {"match": [pair["left"], pair["right"]], "detect": [pair["left"]], "demo": []}
+    res = run(command, *args[command], "--out", "", cwd=tmp_path)
+    assert_bad_input(res, "--out", "empty")
+    assert files_in(tmp_path) == []  # nothing written into the working directory
+
+
+def test_not_a_stereo_pair_warns_in_one_line(pair, tmp_path):
+    """Two unrelated images (here random textures that share nothing) of one size."""
+    other = tmp_path / "other.png"
+    rng = np.random.default_rng(7)
+    cv2.imwrite(str(other), cv2.resize((rng.random((30, 40)) * 255).astype(np.uint8),
+                                       (160, 120)))
+    res = run("match", pair["left"], other, "--out", tmp_path / "o", "--max-disparity", 12)
+    assert res.returncode == 0, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(
+        "hopmatch: warning: the pair does not look like a stereo pair"), res.stderr
+    assert "--fundamental-matrix FILE" in lines[0] and "setFundamentalMatrix" not in lines[0]

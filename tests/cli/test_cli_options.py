@@ -98,3 +98,38 @@ def test_option_help_is_the_param_doc():
     res = CliRunner().invoke(_command(Thing), ["--help"], terminal_width=200)
     assert "How big, in pixels. [matcher; default 3; 'none' for None]" in res.output
     assert _command(Thing).params[0].type.kind == "int"
+
+
+# --------------------------------------------------------------------------------------
+# Help: every option explained, in plain text (issue 19, point 5)
+# --------------------------------------------------------------------------------------
+
+COMMANDS = ["demo", "match", "detect", "eval", "batch"]
+
+
+def _click_command(name):
+    import click
+
+    from hopmatch.cli import cli
+
+    ctx = click.Context(cli)
+    return cli.get_command(ctx, name)
+
+
+@pytest.mark.parametrize("name", COMMANDS)
+def test_every_option_has_help(name):
+    import click
+
+    cmd = _click_command(name)
+    missing = [p.name for p in cmd.params
+               if isinstance(p, click.Option) and not (p.help or "").strip()]
+    assert not missing, f"hopmatch {name}: options without help: {missing}"
+
+
+@pytest.mark.parametrize("name", COMMANDS)
+def test_help_is_plain_text(name):
+    res = run(name, "--help")
+    assert res.returncode == 0, res.stderr
+    for markup in (":func:", ":class:", ":mod:", ":meth:", ":data:", "``", "`~"):
+        assert markup not in res.stdout, (markup, name)
+    assert "--max-vertical" not in res.stdout or "Half-height" in res.stdout

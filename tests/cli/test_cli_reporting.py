@@ -109,3 +109,120 @@ def test_guard_aborts_outputs_and_translates(tmp_path):
     assert not (tmp_path / "new").exists()
     with pytest.raises(ValueError, match="a bug"):  # not hopmatch's: left alone
         guard(None, LABELS, lambda: (_ for _ in ()).throw(ValueError("a bug")))
+
+
+# --------------------------------------------------------------------------------------
+# Warnings: one line, advice in command-line terms (issue 19, point 5)
+# --------------------------------------------------------------------------------------
+
+#: What a warning line must not hold: Python's location and source line, calls of the
+#: Python API, parameter names instead of options.
+PYTHON_ONLY = (".py:", "setFundamentalMatrix", "hopmatch.stereo", "fundamental_matrix=",
+               "max_vertical", "max_disparity", "DericheMoravecDetector.create(", "return f(")
+
+
+def _library_warnings():
+    """The messages of every warning the library gives on a pair, through its entry
+    points: (category, message)."""
+    import warnings
+
+    import cv2
+    import numpy as np
+
+    import hopmatch
+
+    rng = np.random.default_rng(1)
+    left = (rng.random((120, 160)) * 255).astype(np.uint8)
+    unrect = np.roll(np.roll(left, -6, axis=1), 8, axis=0)
+    other = cv2.resize((rng.random((30, 40)) * 255).astype(np.uint8), (160, 120))
+    calls = [
+        lambda: hopmatch.match_stereo(left, unrect, max_disparity=12),          # unrectified
+        lambda: hopmatch.match_stereo(left, left[:, :150], max_disparity=12),   # widths
+        lambda: hopmatch.match_stereo(left, np.roll(left, -6, axis=1),
+                                      max_disparity=400),                     # range
+        lambda: hopmatch.match_stereo(left, other, max_disparity=12),           # unrelated
+    ]
+    det = hopmatch.DericheMoravecDetector()
+    kp1, d1 = det.detectAndCompute(left, None)
+    kp2, d2 = det.detectAndCompute(cv2.resize(left, (200, 150)), None)
+    m = hopmatch.HopfieldMatcher(max_disparity=12)
+    m.setPairInfo(kp1, kp2, (160, 120), (200, 150))
+    calls.append(lambda: m.match(d1, d2))                                        # sizes
+    out = []
+    for call in calls:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            call()
+        out += [(w.category, str(w.message)) for w in caught]
+    return out
+
+
+def test_every_library_warning_reads_in_cli_terms():
+    from hopmatch import DericheMoravecDetector, HopfieldMatcher
+    from hopmatch.cli.options import param_labels
+    from hopmatch.cli.reporting import warning_line
+    from hopmatch.errors import (
+        DisparityRangeWarning,
+        ImageSizeWarning,
+        UnrectifiedPairWarning,
+    )
+    from hopmatch.matching.diagnostics import NotStereoPairWarning
+
+    labels = {"": "l.png, r.png", "left": "l.png", "right": "r.png",
+              **param_labels(DericheMoravecDetector, HopfieldMatcher)}
+    seen = _library_warnings()
+    assert {c for c, _ in seen} >= {UnrectifiedPairWarning, ImageSizeWarning,
+                                     DisparityRangeWarning, NotStereoPairWarning}
+    for category, message in seen:
+        line = warning_line(message, category, labels)
+        assert line.startswith("hopmatch: warning: ") and "\n" not in line
+        for bad in PYTHON_ONLY:
+            assert bad not in line, (bad, line)
+    unrect = next(m for c, m in seen if c is UnrectifiedPairWarning)
+    line = warning_line(unrect, UnrectifiedPairWarning, labels)
+    assert "--max-vertical 1" in line and "--fundamental-matrix FILE" in line
+    width = next(m for c, m in seen if c is ImageSizeWarning and "`left`" in m)
+    assert "l.png is 160 px wide and r.png 150 px" in warning_line(width, ImageSizeWarning,
+                                                                  labels)
+
+
+def test_plain_text_drops_sphinx_markup():
+    from hopmatch.cli.reporting import plain_text
+
+    assert plain_text(":func:`~hopmatch.feature.moravec_response`") == "moravec_response"
+    assert plain_text(":class:`hopmatch.errors.BudgetExceededError`") \
+        == "hopmatch.errors.BudgetExceededError"
+    assert plain_text(":ref:`the docs <parameters>` and ``x``\n  y") == "the docs and x y"
+    assert plain_text("`descriptor_size` ** 2", {"descriptor_size": "--descriptor-size"}) \
+        == "--descriptor-size ** 2"
+
+
+def test_unrectified_pair_warns_in_one_line(unrectified, tmp_path):
+    left, right, _ = unrectified
+    res = run("match", left, right, "--out", tmp_path / "o", "--max-disparity", 12)
+    assert res.returncode == 0, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    line = lines[0]
+    assert line.startswith("hopmatch: warning: the pair does not look rectified")
+    assert "--fundamental-matrix FILE" in line and "--max-vertical 1" in line
+    for bad in PYTHON_ONLY:
+        assert bad not in line, (bad, line)
+    # --quiet silences the summary, not the warning
+    quiet = run("--quiet", "match", left, right, "--out", tmp_path / "q", "--max-disparity", 12)
+    assert quiet.stdout == "" and quiet.stderr.startswith("hopmatch: warning: ")
+    # --debug says where it came from
+    debug = run("--debug", "match", left, right, "--out", tmp_path / "d", "--max-disparity", 12)
+    assert "(UnrectifiedPairWarning at " in debug.stderr
+
+
+def test_python_warning_filters_still_apply(unrectified, tmp_path):
+    import subprocess
+    import sys
+
+    left, right, _ = unrectified
+    res = subprocess.run([sys.executable, "-W", "ignore", "-m", "hopmatch.cli", "match",
+                          str(left), str(right), "--out", str(tmp_path / "o"),
+                          "--max-disparity", "12"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=180)
+    assert res.returncode == 0 and res.stderr == ""

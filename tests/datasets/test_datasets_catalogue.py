@@ -189,22 +189,56 @@ class TestCatalogue:
         with pytest.raises(InvalidArgumentError, match="shared stereo data folder is absent"):
             load("middlebury/tsukuba")
 
-    def test_shared_data_dir_beside_the_project(self, tmp_path, monkeypatch):
-        """Without the variable: ../shared/data beside the project root, then beside the
-        current directory."""
+    def test_shared_data_dir_where_a_user_keeps_it(self, tmp_path, monkeypatch):
+        """Without the variable: shared/data in the working directory, then ../shared/data,
+        then beside the source checkout (issue 19, point 7)."""
         monkeypatch.delenv(ds.SHARED_DATA_ENV, raising=False)
-        beside = ROOT.parent / "shared" / "data"
-        (tmp_path / "shared" / "data").mkdir(parents=True)
-        (tmp_path / "work").mkdir()
+        here, beside = tmp_path / "work" / "shared" / "data", tmp_path / "shared" / "data"
+        here.mkdir(parents=True)
+        beside.mkdir(parents=True)
         monkeypatch.chdir(tmp_path / "work")
-        if beside.is_dir():
-            assert shared_data_dir() == beside
+        assert shared_data_dir() == here
+        here.rmdir()
+        assert shared_data_dir() == beside
+        beside.rmdir()
+        checkout = ROOT.parent / "shared" / "data"
+        if checkout.is_dir():  # running from a clone with the data beside it
+            assert shared_data_dir() == checkout
         else:
-            assert shared_data_dir() == tmp_path / "shared" / "data"
-            monkeypatch.chdir(tmp_path)
             with pytest.raises(InvalidArgumentError, match="shared stereo data") as exc:
                 shared_data_dir()
-            assert repr(str(beside)) in str(exc.value)
+            assert repr(str(checkout)) in str(exc.value)
+
+    def test_variable_wins_over_nearby_folders(self, tmp_path, monkeypatch):
+        (tmp_path / "shared" / "data").mkdir(parents=True)
+        (tmp_path / "elsewhere").mkdir()
+        monkeypatch.chdir(tmp_path)
+        monkeypatch.setenv(ds.SHARED_DATA_ENV, str(tmp_path / "elsewhere"))
+        assert shared_data_dir() == tmp_path / "elsewhere"
+
+    def test_installed_package_never_looks_in_its_environment(self, tmp_path, monkeypatch):
+        """An installed hopmatch (no pyproject.toml beside the package) looks where the
+        user works, not under ``.venv/lib/python3.X``; the message says where it looked."""
+        from hopmatch.datasets import catalogue
+
+        site = tmp_path / ".venv" / "lib" / "python3.11" / "site-packages"
+        (site / "hopmatch").mkdir(parents=True)
+        (site.parent / "shared" / "data").mkdir(parents=True)  # what the old lookup found
+        monkeypatch.setattr(catalogue, "_PROJECT_ROOT", site)
+        monkeypatch.delenv(ds.SHARED_DATA_ENV, raising=False)
+        (tmp_path / "project" / "shared" / "data").mkdir(parents=True)
+        monkeypatch.chdir(tmp_path / "project")
+        assert shared_data_dir() == tmp_path / "project" / "shared" / "data"
+        monkeypatch.chdir(tmp_path / ".venv")
+        with pytest.raises(InvalidArgumentError, match="shared stereo data folder is absent") \
+                as exc:
+            shared_data_dir()
+        message = str(exc.value)
+        assert "python3.11" not in message
+        for place in (tmp_path / ".venv" / "shared" / "data", tmp_path / "shared" / "data"):
+            assert repr(str(place)) in message
+        assert "./shared/data" in message and "../shared/data" in message
+        assert "HOPMATCH_SHARED_DATA" in message
 
     def test_list_and_load_from_root(self, tmp_path):
         make_scene(tmp_path / "set" / "a")

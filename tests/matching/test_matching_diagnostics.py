@@ -76,3 +76,105 @@ def test_function_names_its_own_arguments():
         hopmatch.hopfield_match("points", PTS, DESC, DESC)
     with pytest.raises(hopmatch.errors.InvalidTypeError, match="`fundamental_matrix`"):
         hopmatch.hopfield_match(PTS, PTS, DESC, DESC, fundamental_matrix="F")
+
+
+# --------------------------------------------------------------------------------------
+# A pair that is not a stereo pair (issue 19, point 6)
+# --------------------------------------------------------------------------------------
+
+
+def _object_and_scene():
+    """find_obj.py's situation, as box.png / box_in_scene.png: a 324 x 223 object (a crop
+    of motorcycle) and a 512 x 384 scene (scikit-image's coffee) holding it rotated by 25
+    degrees and scaled by 0.75."""
+    import cv2
+    from skimage import data
+
+    from hopmatch.datasets import load_motorcycle
+
+    obj = cv2.cvtColor(load_motorcycle().left, cv2.COLOR_BGR2GRAY)[150:373, 200:524]
+    scene = cv2.cvtColor(cv2.resize(data.coffee(), (512, 384)), cv2.COLOR_RGB2GRAY)
+    M = cv2.getRotationMatrix2D((162, 111), 25, 0.75)
+    M[:, 2] += (120, 90)
+    warped = cv2.warpAffine(obj, M, (512, 384))
+    inside = cv2.warpAffine(np.full_like(obj, 255), M, (512, 384)) > 0
+    scene[inside] = warped[inside]
+    return obj, scene
+
+
+def _caught(call):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = call()
+    return out, caught
+
+
+def test_object_and_scene_warn_once_that_they_are_no_stereo_pair():
+    """The find_obj.py flow with hopmatch's classes: no match, and one warning that says
+    the pair is not a stereo pair and what to try (beside the one about image sizes)."""
+    from hopmatch.matching.diagnostics import NotStereoPairWarning
+
+    obj, scene = _object_and_scene()
+    detector = hopmatch.DericheMoravecDetector.create()
+    kp1, des1 = detector.detectAndCompute(obj, None)
+    kp2, des2 = detector.detectAndCompute(scene, None)
+    matcher = hopmatch.HopfieldMatcher.create()
+    matcher.setPairInfo(kp1, kp2, obj.shape[::-1], scene.shape[::-1])
+    pairs, caught = _caught(lambda: matcher.knnMatch(des1, des2, k=2))
+    good = [m for m, n in pairs if m.distance < 0.75 * n.distance]
+    assert len(good) < 10
+    hits = [w for w in caught if w.category is NotStereoPairWarning]
+    assert len(hits) == 1, [str(w.message) for w in caught]
+    text = str(hits[0].message)
+    assert text.startswith("the pair does not look like a stereo pair")
+    assert "left image first" in text and "setFundamentalMatrix" in text
+    assert "findHomography" in text
+    assert hits[0].filename == __file__  # at the user's line
+    assert issubclass(NotStereoPairWarning, hopmatch.errors.HopmatchWarning)
+
+
+def test_two_unrelated_images_of_one_size_warn():
+    from hopmatch.matching.diagnostics import NotStereoPairWarning
+
+    obj, scene = _object_and_scene()
+    res, caught = _caught(lambda: hopmatch.match_stereo(scene[:223, :324], obj))
+    assert len(res.matches) < 10
+    assert [w.category for w in caught] == [NotStereoPairWarning]
+
+
+def test_stereo_pairs_are_not_called_unrelated(motorcycle):
+    """Rectified, unrectified (rotated and shifted) and swapped views of one scene never get
+    the warning; the unrectified one gets the rectification warning alone."""
+    import cv2
+
+    from hopmatch.errors import UnrectifiedPairWarning
+    from hopmatch.matching.diagnostics import NotStereoPairWarning
+
+    left, right = (cv2.cvtColor(img, cv2.COLOR_RGB2GRAY) for img in motorcycle[:2])
+    h, w = left.shape
+    M = cv2.getRotationMatrix2D((w / 2, h / 2), 4, 1.0)
+    M[1, 2] += 20
+    for l_img, r_img, expected in ((left, right, []),
+                                   (left, cv2.warpAffine(right, M, (w, h)),
+                                    [UnrectifiedPairWarning]),
+                                   (right, left, [])):
+        _, caught = _caught(lambda a=l_img, b=r_img: hopmatch.match_stereo(a, b))
+        categories = [w.category for w in caught]
+        assert NotStereoPairWarning not in categories
+        assert categories == expected
+
+
+@pytest.mark.shared_data
+def test_raw_chessboard_photos_are_a_stereo_pair(shared_data):
+    """Repetitive texture (OpenCV's raw calibration photos, a few matches): not called
+    unrelated."""
+    import cv2
+
+    from hopmatch.matching.diagnostics import NotStereoPairWarning
+
+    folder = shared_data / "opencv_stereo_calib"
+    for n in ("01", "11"):
+        left = cv2.imread(str(folder / f"left{n}.jpg"), cv2.IMREAD_GRAYSCALE)
+        right = cv2.imread(str(folder / f"right{n}.jpg"), cv2.IMREAD_GRAYSCALE)
+        _, caught = _caught(lambda a=left, b=right: hopmatch.match_stereo(a, b))
+        assert NotStereoPairWarning not in [w.category for w in caught]

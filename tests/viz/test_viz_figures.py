@@ -289,8 +289,13 @@ def test_match_figures_writes_the_three_pictures(pair, tmp_path):
     assert np.array_equal(fig5l, viz.draw_keypoints_on_gradient(left, result.points_left, det))
     assert np.array_equal(fig5r,
                           viz.draw_keypoints_on_gradient(right, result.points_right, det))
+    # figure7.png numbers a spread-out subset when the matches are many (issue 19)
+    from hopmatch.cli.commands import FIGURE7_LABELS
+
+    assert len(result.matches) > FIGURE7_LABELS
     assert np.array_equal(fig7, viz.draw_labelled_matches(
-        left, right, result.points_left, result.points_right, result.matches))
+        left, right, result.points_left, result.points_right, result.matches,
+        max_labels=FIGURE7_LABELS))
 
     run_json = json.loads((out / "run.json").read_text())
     assert run_json["parameters"]["figures"] is True

@@ -5,8 +5,7 @@ from __future__ import annotations
 import cv2
 
 #: What to install when the check fails.
-INSTALL_HINT = ("pip install 'opencv-contrib-python-headless>=4.8,<5'  (or: pip install "
-                "'hopmatch[all]' with the constraints in .ci/constraints.txt)")
+INSTALL_HINT = "pip install 'hopmatch[gapi]' (it caps OpenCV at 4.x: >=4.8,<5)"
 
 
 def missing_gapi_features() -> list[str]:
