@@ -13,7 +13,7 @@ from ..errors import InvalidArgumentError
 MATCHER_PARAMS: tuple[Param, ...] = (
     Param("preset", "default", choice("default", "paper")),
     # search window of the candidates (epipolar band + disparity range)
-    Param("min_disparity", 0.0, real()),
+    Param("min_disparity", 0.0, real(optional=True)),
     Param("max_disparity", None, real(optional=True)),
     Param("max_vertical", 1.0, real(0.0)),
     # neighbourhood of interactions (paper: 40 x 20)
@@ -93,11 +93,12 @@ MatcherConfig = dataclasses.make_dataclass(
 
 def check_disparity_order(min_disparity: float, max_disparity: float | None) -> None:
     """Refuse ``max_disparity < min_disparity`` (None: resolved later, not checked)."""
-    if max_disparity is not None and max_disparity < min_disparity:
+    if max_disparity is not None and min_disparity is not None \
+            and max_disparity < min_disparity:
         raise InvalidArgumentError(
             f"`max_disparity` ({max_disparity}) must not be below `min_disparity` "
-            f"({min_disparity}); swap them or leave max_disparity=None (a quarter "
-            "of the image width)"
+            f"({min_disparity}); swap them or leave max_disparity=None (the range is "
+            "then found by a coarse pass, min_disparity its floor)"
         )
 
 
