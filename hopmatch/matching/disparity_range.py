@@ -122,6 +122,31 @@ def coarse_config(config, n_left: int, n_kept: int, min_disparity: float,
         neighbour_height=config.neighbour_height * f, theta=config.theta * f)
 
 
+def coarse_extent(config, q_pts, t_pts, qd, td, bottom: float, top: float, width: float,
+                  run_network, *, mask=None, fundamental=None):
+    """``(lo, hi, n)``: the trimmed extent of the ``n`` matches of the coarse pass searching
+    ``[bottom, top]``, or None when it keeps fewer than :data:`MIN_MATCHES` (or exceeds a
+    budget)."""
+    if not len(q_pts) or not len(t_pts) or not len(qd) or not len(td):
+        return None
+    keep = thin_points(q_pts, COARSE_POINTS)
+    cfg = coarse_config(config, len(q_pts), len(keep), bottom, top)
+    try:
+        coarse = run_network(np.ascontiguousarray(q_pts[keep]), t_pts,
+                             np.ascontiguousarray(qd[keep]), td, cfg,
+                             mask=None if mask is None else np.ascontiguousarray(mask[keep]),
+                             fundamental=fundamental)
+    except BudgetExceededError:
+        return None
+    n = len(coarse.query_idx)
+    if n < MIN_MATCHES:
+        return None
+    d = (q_pts[keep][coarse.query_idx, 0].astype(np.float64)
+         - t_pts[coarse.train_idx, 0])
+    lo, hi = trimmed_extent(d, GAP_FRACTION * width + RANGE_PIXELS)
+    return lo, hi, n
+
+
 def resolve_disparity_range(config, q_pts, t_pts, qd, td, query_size, run_network, *,
                             mask=None, fundamental=None) -> DisparityRange:
     """The search range of the full pass.
@@ -158,25 +183,16 @@ def resolve_disparity_range(config, q_pts, t_pts, qd, td, query_size, run_networ
     fallback = DisparityRange(bottom, top, "fallback")
     if not len(q_pts) or not len(t_pts) or not len(qd) or not len(td):
         return fallback._replace(source="empty")
-    keep = thin_points(q_pts, COARSE_POINTS)
-    cfg = coarse_config(config, len(q_pts), len(keep), bottom, top)
-    try:
-        coarse = run_network(np.ascontiguousarray(q_pts[keep]), t_pts,
-                             np.ascontiguousarray(qd[keep]), td, cfg,
-                             mask=None if mask is None else np.ascontiguousarray(mask[keep]),
-                             fundamental=fundamental)
-    except BudgetExceededError:
+    found = coarse_extent(config, q_pts, t_pts, qd, td, bottom, top, width, run_network,
+                          mask=mask, fundamental=fundamental)
+    if found is None:
         return fallback
-    if len(coarse.query_idx) < MIN_MATCHES:
-        return fallback._replace(n_matches=len(coarse.query_idx))
-    d = (q_pts[keep][coarse.query_idx, 0].astype(np.float64)
-         - t_pts[coarse.train_idx, 0])
-    lo, hi = trimmed_extent(d, GAP_FRACTION * width + RANGE_PIXELS)
+    lo, hi, n = found
     low, high = widen(lo, hi, width)
     if floor is not None:
         low = max(low, float(floor))
         high = max(high, low)
-    return DisparityRange(low, high, "coarse", (lo, hi), len(d))
+    return DisparityRange(low, high, "coarse", (lo, hi), n)
 
 
 def run_in_range(run_network, found: DisparityRange, config, q_pts, t_pts, qd, td, **kwargs):

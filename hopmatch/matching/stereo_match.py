@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -13,9 +14,11 @@ from .._validate import as_fundamental_matrix, check_coordinate_range
 from .._warnings import warn
 from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
+from .geometry import EpipolarGeometry, GeometryWarning
 from .matcher import HopfieldMatcher
 from .network import NetworkResult, PairInfo, match_pair
 from .params import matcher_config
+from .unrectified import UNRECTIFIED_VERTICAL, empty_network_result, match_unrectified
 
 DETECTOR_NAMES = frozenset(p.name for p in DericheMoravecDetector.PARAMS)
 MATCHER_NAMES = frozenset(p.name for p in HopfieldMatcher.PARAMS)
@@ -61,7 +64,15 @@ class StereoMatchResult:
     network : NetworkResult
         Everything the network computed (fields, energy, energy trace...).
     timings : dict
-        Seconds spent in ``detect_left``, ``detect_right``, ``match``.
+        Seconds spent in ``detect_left``, ``detect_right``, ``match`` (and ``geometry``
+        with ``rectified=False``).
+    fundamental_matrix : (3, 3) float64 ndarray or None
+        With ``rectified=False``: the F the matches were searched along
+        (``[xr, yr, 1] @ F @ [xl, yl, 1] == 0``); otherwise the ``fundamental_matrix``
+        given, or None.
+    geometry : EpipolarGeometry or None
+        With ``rectified=False``: how F was found (bootstrap correspondences, inliers,
+        median epipolar error, or the reason none was accepted).
     """
 
     points_left: np.ndarray
@@ -74,6 +85,8 @@ class StereoMatchResult:
     network: NetworkResult
     keypoint_size: float
     timings: dict = field(default_factory=dict)
+    fundamental_matrix: np.ndarray | None = None
+    geometry: EpipolarGeometry | None = None
 
     @property
     def matched_left(self) -> np.ndarray:
@@ -110,7 +123,8 @@ class StereoMatchResult:
 
 
 def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_matrix=None,
-                 record_energy: bool = False, detector: DericheMoravecDetector | None = None,
+                 rectified: bool = True, record_energy: bool = False,
+                 detector: DericheMoravecDetector | None = None,
                  matcher: HopfieldMatcher | None = None, **params) -> StereoMatchResult:
     """Detect Moravec points on a stereo pair and match them with the Hopfield network.
 
@@ -124,6 +138,17 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     fundamental_matrix : (3, 3) array-like, optional
         Match an unrectified pair along epipolar lines (``x_r^T F x_l = 0``, as
         ``cv2.findFundamentalMat`` returns it) instead of image rows.
+    rectified : bool
+        False for a pair whose geometry is unknown (two photos): the epipolar geometry and
+        the disparity range are estimated from the pair itself, the right image is
+        aligned with the left one and the network searches the epipolar band
+        (``hopmatch.matching.unrectified``; docs/pipelines.md). The result then carries
+        ``fundamental_matrix`` and ``geometry``; when the pair supports no geometry (no
+        texture, unrelated images) it is empty and a
+        :class:`~hopmatch.matching.geometry.GeometryWarning` says why. Cannot be combined
+        with ``fundamental_matrix`` or a disparity range (it finds its own). Unless given
+        (as a keyword), ``vertical_threshold`` is then
+        :data:`~hopmatch.matching.unrectified.UNRECTIFIED_VERTICAL`.
     record_energy : bool
         Keep the network energy after every iteration (``result.network.energy_trace``).
     detector, matcher : DericheMoravecDetector, HopfieldMatcher, optional
@@ -169,6 +194,13 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                                                                           "match_stereo")
     fundamental = as_fundamental_matrix(fundamental_matrix, "fundamental_matrix",
                                         optional=True)
+    if not isinstance(rectified, (bool, np.bool_)):
+        raise InvalidTypeError(f"`rectified` must be True or False, got {rectified!r}")
+    if not rectified:
+        if matcher is None and "vertical_threshold" not in match_params:
+            config = dataclasses.replace(config, vertical_threshold=UNRECTIFIED_VERTICAL)
+        return _match_unrectified(left, right, detector, config, fundamental, mask_left,
+                                  mask_right, record_energy)
 
     t0 = time.perf_counter()
     pts_l, resp_l, desc_l, g_l = detector.detect_and_describe(
@@ -203,3 +235,30 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         network=net, keypoint_size=float(detector.getWindowSize()),
         timings={"detect_left": t1 - t0, "detect_right": t2 - t1, "match": t3 - t2},
     )
+
+
+def _match_unrectified(left, right, detector, config, fundamental, mask_left, mask_right,
+                       record_energy) -> StereoMatchResult:
+    """``match_stereo(..., rectified=False)``: :func:`match_unrectified` as a result."""
+    if fundamental is not None:
+        raise InvalidArgumentError(
+            "match_stereo got rectified=False and a fundamental_matrix: rectified=False "
+            "estimates F from the pair; to match along a known F pass only "
+            "fundamental_matrix")
+    if config.max_disparity is not None:
+        raise InvalidArgumentError(
+            f"match_stereo got rectified=False and max_disparity={config.max_disparity:g}: "
+            "the disparity range of an unrectified pair is found with its geometry (in the "
+            "frame the right image is aligned to); leave max_disparity=None")
+    pts_l, resp_l, pts_r, resp_r, net, geometry, timings = match_unrectified(
+        left, right, detector, config, mask_left=mask_left, mask_right=mask_right,
+        record_energy=record_energy)
+    if net is None:
+        warn(f"match_stereo(rectified=False) found no epipolar geometry, so no matches: "
+             f"{geometry.reason}", GeometryWarning)
+        net = empty_network_result(config)
+    return StereoMatchResult(
+        points_left=pts_l, points_right=pts_r, responses_left=resp_l, responses_right=resp_r,
+        query_idx=net.query_idx, train_idx=net.train_idx, distances=net.distances,
+        network=net, keypoint_size=float(detector.getWindowSize()), timings=timings,
+        fundamental_matrix=geometry.fundamental, geometry=geometry)
