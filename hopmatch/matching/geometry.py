@@ -28,7 +28,7 @@ BOOTSTRAP_SIDE = 800
 #: SIFT keypoints kept per image at that level, SIFT's contrast threshold (a quarter of
 #: OpenCV's default: low-texture scenes give too few correspondences with the default), and
 #: Lowe's ratio of the bootstrap matches (which must also be mutual nearest neighbours).
-BOOTSTRAP_FEATURES = 2000
+BOOTSTRAP_FEATURES = 1500
 BOOTSTRAP_CONTRAST = 0.01
 BOOTSTRAP_RATIO = 0.8
 #: MAGSAC's threshold (pixels of the full-resolution image, per pyramid level of the

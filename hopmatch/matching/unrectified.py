@@ -65,16 +65,18 @@ SHARPNESS_PIXELS = 1_000_000
 PASSES = 1
 #: Refit F on the final matches (the F reported; the matches are those of the last pass).
 REFITS = True
-#: How the network searches the aligned pair (:func:`search_frame`): the aligned rows when
-#: they line up the inliers nearly as well as F does (median |dy| within ROW_FACTOR x F's
-#: median epipolar error, or ROW_PIXELS), else the rows of a projective rectification of
-#: both point sets (:func:`~hopmatch.matching.geometry.rectifying_homographies`), unless
-#: it moves the left inliers by more than RECTIFY_LIMIT of the image diagonal (a
+#: How the network searches the aligned pair (:func:`search_frame`, in SEARCH_ORDER): the
+#: aligned rows when they line up the inliers nearly as well as F does (median |dy| within
+#: ROW_FACTOR x F's median epipolar error, or ROW_PIXELS: a near-degenerate F, from a scene
+#: close to one plane, fits its inliers worse than the rows do), else the rows of a
+#: projective rectification of both point sets
+#: (:func:`~hopmatch.matching.geometry.rectifying_homographies`), unless it moves a point
+#: of the image by more than RECTIFY_LIMIT of its diagonal (:func:`near_identity`; a
 #: near-degenerate F gives wild rectifications): then the epipolar band of F (slower: the
 #: candidate search cannot index rows).
 ROW_FACTOR = 1.5
 ROW_PIXELS = 0.25
-RECTIFY_LIMIT = 0.02
+RECTIFY_LIMIT = 0.1
 SEARCH_ORDER = ("aligned", "rectified", "epipolar")
 
 
@@ -172,6 +174,22 @@ def equalise_sharpness(left_gray, warped, valid):
     return left_gray, cv2.GaussianBlur(warped.astype(np.float32), (0, 0), sigma), (0.0, sigma)
 
 
+def near_identity(maps, size) -> bool:
+    """Whether each 3 x 3 map moves every point of a 9 x 9 grid over the image by at most
+    :data:`RECTIFY_LIMIT` of its diagonal (and keeps it in front: positive w)."""
+    w, h = size
+    gx, gy = np.meshgrid(np.linspace(0, w - 1, 9), np.linspace(0, h - 1, 9))
+    grid = np.c_[gx.ravel(), gy.ravel(), np.ones(gx.size)]
+    for H in maps:
+        p = grid @ np.asarray(H).T
+        if not (p[:, 2] > 0).all():
+            return False
+        moved = np.hypot(p[:, 0] / p[:, 2] - grid[:, 0], p[:, 1] / p[:, 2] - grid[:, 1])
+        if not moved.max() <= RECTIFY_LIMIT * float(np.hypot(w, h)):
+            return False
+    return True
+
+
 def search_frame(geometry, to_aligned, size):
     """``(H1, H2, (lo, hi), mode)``: where the network searches (see :data:`SEARCH_ORDER`).
 
@@ -189,10 +207,9 @@ def search_frame(geometry, to_aligned, size):
             if H is None:
                 continue
             H1, H2 = H
-            rl, ra = transform_points(il, H1), transform_points(ia, H2)
-            moved = float(np.percentile(np.hypot(*(rl - il).T), 99))
-            if moved > RECTIFY_LIMIT * float(np.hypot(*size)):
+            if not near_identity((H1, H2), size):
                 continue
+            rl, ra = transform_points(il, H1), transform_points(ia, H2)
         elif mode == "aligned":
             row_error = float(np.median(np.abs(il[:, 1].astype(np.float64) - ia[:, 1])))
             if row_error > max(ROW_FACTOR * geometry.median_error, ROW_PIXELS):
