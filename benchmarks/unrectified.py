@@ -151,8 +151,8 @@ def perturbed(names, perturbations) -> None:
     print(f"\nAll pairs: {tot_c} correct of {tot_n} scored (pooled precision {tot_c / tot_n:.4f}), "
           f"{tot_c / tot_ref:.3f}x the reference's {tot_ref} correct; per pair: ratio mean "
           f"{np.nanmean(ratios):.3f}, min {np.nanmin(ratios):.2f}; precision min "
-          f"{np.nanmin(precisions):.3f}; F error median of medians {np.nanmedian(f_medians):.2f} px, "
-          f"max {np.nanmax(f_medians):.2f} px\n")
+          f"{np.nanmin(precisions):.3f}; F error median of medians "
+          f"{np.nanmedian(f_medians):.2f} px, max {np.nanmax(f_medians):.2f} px\n")
 
 
 def calibration(folder):
