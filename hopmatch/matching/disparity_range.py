@@ -225,7 +225,7 @@ def warn_fallback(found: DisparityRange, n_matches: int) -> None:
     """Warn (:class:`~hopmatch.errors.DisparityRangeWarning`) when the range could not be
     found and the full pass, searching the whole fallback range, found nothing either."""
     if found.source == "fallback" and n_matches == 0:
-        warn(f"max_disparity=None: the coarse pass found {found.n_matches} matches (fewer than "
-             f"{MIN_MATCHES}), so the range [{found.min_disparity:g}, "
+        warn(f"max_disparity=None: the coarse pass kept fewer than {MIN_MATCHES} matches, so "
+             f"the whole range [{found.min_disparity:g}, "
              f"{found.max_disparity:g}] was searched, and no match was found there; give the "
              "range (min_disparity, max_disparity) if you know it", DisparityRangeWarning)
