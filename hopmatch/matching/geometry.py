@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import BudgetExceededError, HopmatchWarning
 from .candidates import candidate_pairs
-from .disparity_range import thin_points, trimmed_extent
+from .disparity_range import thin_points
 from .similarity import similarity_distance
 
 #: The bootstrap runs on the pyramid level whose longer side is at most this (``pyrDown``).
@@ -102,24 +102,18 @@ class EpipolarGeometry:
 
     @property
     def n_correspondences(self) -> int:
+        """Number of bootstrap correspondences."""
         return len(self.left_points)
 
     @property
     def n_inliers(self) -> int:
+        """Number of them that agree with ``fundamental``."""
         return int(self.inliers.sum())
 
     @property
     def inlier_ratio(self) -> float:
+        """``n_inliers / n_correspondences`` (0 without correspondences)."""
         return self.n_inliers / self.n_correspondences if self.n_correspondences else 0.0
-
-    def disparity_extent(self, width: float) -> tuple[float, float] | None:
-        """``(min, max)`` of ``xl - xr`` over the inliers (isolated extremes trimmed), or
-        None without inliers."""
-        if not self.n_inliers:
-            return None
-        d = (self.left_points[self.inliers, 0].astype(np.float64)
-             - self.right_points[self.inliers, 0])
-        return trimmed_extent(d, 0.02 * width + 2.0)
 
 
 def symmetric_epipolar_error(F, left, right) -> np.ndarray:

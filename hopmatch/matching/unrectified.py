@@ -11,10 +11,16 @@ rectified=False)``.
    section 2 says once rotation and scale between the images are gone, and the detector's
    four Moravec directions (eq. 1) only find the same points when both images face the
    same way.
-3. The network searches the epipolar band of F (carried into the aligned frame) within
-   the disparity range of the inliers; optionally F is refitted on the network's matches
-   and the band searched again.
-Points are reported in the coordinates of the images given.
+3. The sharper image is blurred to the other's sharpness (:func:`equalise_sharpness`):
+   the warp smooths the right image, and the similarity of eqs. 7-9 compares windows.
+4. The network searches rows (of the aligned pair, or of a rectification close to the
+   identity) or else the epipolar band of F (:func:`search_frame`), over the disparity
+   range a coarse pass finds there (:func:`network_range`). F is refitted on the final
+   matches (the F reported).
+
+Points are reported in the coordinates of the images given. The choices were measured on
+perturbed shared scenes and the chessboard photos (``benchmarks/unrectified.py``;
+docs/pipelines.md, "Which call for which pair").
 """
 
 from __future__ import annotations
@@ -37,8 +43,8 @@ from .geometry import (
 )
 from .network import NetworkResult, PairInfo, match_pair, run_hopfield_network
 
-#: The aligned range: the inliers' trimmed disparity extent widened on each side by this
-#: fraction of its span, plus 1 % of the width and 2 px ...
+#: A range in the search frame: an extent widened on each side by this fraction of its
+#: span, plus 1 % of the width and 2 px ...
 RANGE_SPAN = 0.5
 #: ... and shifted so that it starts at this disparity: the network's disparity (eq. 6) is
 #: a length, so the aligned disparities must keep one sign.
@@ -51,7 +57,7 @@ INTERPOLATION = cv2.INTER_LANCZOS4
 #: ``vertical_threshold`` of ``match_stereo(..., rectified=False)`` unless given: a match of
 #: an unrectified pair is right when its right point is within 1 px of the truth in both
 #: directions, and the aligned right image is resampled, so its rows are less certain
-#: than a rectified pair's (docs/pipelines.md, "Uncalibrated pairs").
+#: than a rectified pair's (docs/pipelines.md, "Which call for which pair").
 UNRECTIFIED_VERTICAL = 0.75
 #: :func:`equalise_sharpness`: images whose sharpness differs by more than this fraction
 #: are equalised, by a Gaussian of sigma at most SHARPNESS_MAX_SIGMA found in
