@@ -10,12 +10,14 @@ import numpy as np
 
 from .._params import Configurable, state_params
 
-# Names that lived in this module before the matching layer was split, kept importable
-# from here: their homes are budget.py, candidates.py, diagnostics.py and _validate.py.
+# The imports marked "noqa: F401" re-export names that lived in this module before the
+# matching layer was split, so they stay importable from here.
 from .._validate import (
+    as_descriptors,
     as_fundamental_matrix,  # noqa: E402, F401
     as_int,
 )
+from .._warnings import warn
 from ..errors import InvalidArgumentError, InvalidTypeError, PairInfoError
 from .budget import (  # noqa: E402, F401
     MAX_ENERGY_TRACE,
@@ -32,6 +34,7 @@ from .diagnostics import (  # noqa: E402, F401
     RECTIFICATION_SUSPICIOUS,
     rectification_evidence,
 )
+from .geometry import EpipolarGeometry, GeometryWarning, estimate_geometry_of_points
 from .network import NetworkResult, PairInfo, hopfield_match, match_pair
 from .params import MATCHER_PARAMS, PRESETS, MatcherConfig, check_disparity_order
 from .similarity import match_distance
@@ -134,6 +137,61 @@ class HopfieldMatcher(Configurable):
         disambiguation measures offsets from that line. ``F`` is 3 x 3 as returned by
         ``cv2.findFundamentalMat`` (``x_r^T F x_l = 0``); None returns to rectified mode."""
         self._fundamental = as_fundamental_matrix(F, optional=True)
+
+    def estimateFundamentalMatrix(self, queryDescriptors,  # noqa: N802, N803
+                                  trainDescriptors) -> EpipolarGeometry:  # noqa: N803
+        """Estimate the epipolar geometry of the pair from the pair information and these
+        descriptors, and match along it from now on (:meth:`setFundamentalMatrix`).
+
+        For an unrectified pair whose F nobody gave (two photos): a thinned set of the
+        query points is compared, by the network's similarity (eqs. 7-9) and a ratio test,
+        with the train points of a two-dimensional window (a quarter of the width either
+        way, 12 % of the height up and down); ``cv2.findFundamentalMat`` with
+        ``cv2.USAC_MAGSAC`` fits F to those correspondences
+        (``hopmatch.matching.geometry``). ``match_stereo(left, right, rectified=False)``,
+        which sees the images, does more (SIFT correspondences, the right image aligned
+        with the left one; docs/pipelines.md).
+
+        Returns
+        -------
+        EpipolarGeometry
+            ``fundamental`` (also set on the matcher), the correspondences and their
+            ``inliers``. When the correspondences support no F (too few, or too few
+            agreeing, or no more than agree by chance: images without texture, or of
+            different scenes), ``fundamental`` is None, ``reason`` says why, a
+            :class:`~hopmatch.matching.geometry.GeometryWarning` is issued and the matcher's
+            fundamental matrix is left as it was.
+
+        Examples
+        --------
+        >>> import cv2
+        >>> matcher = HopfieldMatcher.create()
+        >>> matcher.setPairInfo(kp_left, kp_right, size_left, size_right)  # doctest: +SKIP
+        >>> geometry = matcher.estimateFundamentalMatrix(des_left, des_right)  # doctest: +SKIP
+        >>> matches = matcher.knnMatch(des_left, des_right, k=2)  # doctest: +SKIP
+        """
+        pair = self._pair
+        if pair is None:
+            raise PairInfoError(
+                "no pair information: call setPairInfo(queryKpts, trainKpts, queryImageSize, "
+                "trainImageSize) before estimateFundamentalMatrix"
+            )
+        qd = as_descriptors(queryDescriptors, "queryDescriptors")
+        td = as_descriptors(trainDescriptors, "trainDescriptors")
+        if len(qd) != len(pair.query_points) or len(td) != len(pair.train_points):
+            raise PairInfoError(
+                f"descriptor counts ({len(qd)} query, {len(td)} train) disagree with the "
+                f"keypoints given to setPairInfo ({len(pair.query_points)} query, "
+                f"{len(pair.train_points)} train)"
+            )
+        geometry = estimate_geometry_of_points(pair.query_points, pair.train_points, qd, td,
+                                               pair.query_size)
+        if geometry.fundamental is None:
+            warn(f"estimateFundamentalMatrix found no epipolar geometry: {geometry.reason}; "
+                 "the matcher's fundamental matrix is unchanged", GeometryWarning)
+        else:
+            self.setFundamentalMatrix(geometry.fundamental)
+        return geometry
 
     def getFundamentalMatrix(self):  # noqa: N802
         """The fundamental matrix set by :meth:`setFundamentalMatrix`, or None."""

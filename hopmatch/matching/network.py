@@ -29,8 +29,8 @@ from .._validate import (
 from ..errors import InvalidArgumentError, PairInfoError
 from .budget import check_energy_trace, check_neighbour_budget, interaction_capacity
 
-# Names that lived in this module before the matching layer was split, kept importable
-# from here: their homes are candidates.py, similarity.py and budget.py.
+# The imports marked "noqa: F401" re-export names that lived in this module before the
+# matching layer was split, so they stay importable from here.
 from .candidates import (  # noqa: E402, F401
     candidate_pairs,
     left_visit_order,
@@ -40,6 +40,7 @@ from .candidates import (  # noqa: E402, F401
 )
 from .diagnostics import warn_geometry, warn_if_unrectified
 from .disambiguate import disambiguate, vertically_consistent
+from .disparity_range import resolve_disparity_range, run_in_range, warn_fallback
 from .params import MatcherConfig, check_disparity_order, matcher_config
 from .similarity import (
     WINDOW_MEAN_TOL,  # noqa: E402, F401
@@ -247,14 +248,18 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
             "type and length"
         )
     mask = as_mask(mask, (len(q_pts), len(t_pts)), "mask", of="(n_query, n_train)")
-    max_disparity = resolve_max_disparity(config.max_disparity, pair.query_size, q_pts, t_pts)
-    check_disparity_order(config.min_disparity, max_disparity)
-    config = dataclasses.replace(config, max_disparity=max_disparity)
     check_energy_trace(config.max_iterations, record_energy)
     check_neighbour_budget(q_pts, config)
+    found = resolve_disparity_range(config, q_pts, t_pts, qd, td, pair.query_size,
+                                    run_hopfield_network, mask=mask, fundamental=fundamental)
+    check_disparity_order(found.min_disparity, found.max_disparity)
+    config = dataclasses.replace(config, min_disparity=found.min_disparity,
+                                 max_disparity=found.max_disparity)
     warn_geometry(pair.query_size, pair.train_size, fundamental, config)
-    result = run_hopfield_network(q_pts, t_pts, qd, td, config, mask=mask,
-                                  record_energy=record_energy, fundamental=fundamental)
+    result, config = run_in_range(run_hopfield_network, found, config, q_pts, t_pts, qd, td,
+                                  mask=mask, record_energy=record_energy,
+                                  fundamental=fundamental)
+    warn_fallback(found, len(result.query_idx))
     warn_if_unrectified(len(result.query_idx), q_pts, t_pts, qd, td, fundamental, config)
     return result
 

@@ -16,10 +16,12 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "Mahiddine (2002), 'default' the tuned defaults (docs/parameters.md); explicit "
         "parameters win")),
     # search window of the candidates (epipolar band + disparity range)
-    Param("min_disparity", 0.0, real(), doc=(
-        "Smallest disparity x_left - x_right searched, in pixels (may be negative)")),
+    Param("min_disparity", 0.0, real(optional=True), doc=(
+        "Smallest disparity x_left - x_right searched, in pixels (may be negative; None: "
+        "no floor for the range found when max_disparity is None)")),
     Param("max_disparity", None, real(optional=True), doc=(
-        "Largest disparity searched, in pixels; None: a quarter of the left image's width")),
+        "Largest disparity searched, in pixels; None: found by a coarse pass of the "
+        "network (min_disparity its floor)")),
     Param("max_vertical", 1.0, real(0.0), doc=(
         "Half-height in pixels of the band of rows searched around each left point (with "
         "a fundamental matrix: the largest distance to its epipolar line)")),
@@ -152,7 +154,8 @@ MatcherConfig = dataclasses.make_dataclass(
 
 def check_disparity_order(min_disparity: float, max_disparity: float | None) -> None:
     """Refuse ``max_disparity < min_disparity`` (None: resolved later, not checked)."""
-    if max_disparity is not None and max_disparity < min_disparity:
+    if max_disparity is not None and min_disparity is not None \
+            and max_disparity < min_disparity:
         raise InvalidArgumentError(
             f"`max_disparity` ({max_disparity}) must not be below `min_disparity` "
             f"({min_disparity}); swap them or leave max_disparity=None (a quarter "

@@ -14,11 +14,13 @@ from .._validate import as_fundamental_matrix, check_coordinate_range
 from .._warnings import warn
 from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
+from .geometry import EpipolarGeometry, GeometryWarning
 from .guided import GuidedMatches, guided_pass
 from .matcher import HopfieldMatcher
 from .network import NetworkResult, PairInfo, match_pair
 from .params import MatcherConfig, matcher_config
 from .refine import Refinement, refine_disparities
+from .unrectified import UNRECTIFIED_VERTICAL, empty_network_result, match_unrectified
 from .vertical import RowOffset, fit_row_offset, median_offset
 
 #: ``StereoMatchResult.passes`` of a match found by the network.
@@ -78,7 +80,7 @@ class StereoMatchResult:
         Everything the network computed (fields, energy, energy trace...), unrefined.
     timings : dict
         Seconds spent in ``detect_left``, ``detect_right`` and ``match`` (the network and
-        the steps after it).
+        the steps after it), and ``geometry`` with ``rectified=False``.
     passes : (M,) uint8 ndarray
         Which pass found each match: :data:`PASS_NETWORK` (0) or :data:`PASS_GUIDED` (1).
     n_detected_right : int
@@ -93,6 +95,13 @@ class StereoMatchResult:
     match_timings : dict
         How ``timings["match"]`` splits: seconds in the ``network``, the ``guided`` pass
         and the ``refine`` step.
+    fundamental_matrix : (3, 3) float64 ndarray or None
+        With ``rectified=False``: the F the matches were searched along
+        (``[xr, yr, 1] @ F @ [xl, yl, 1] == 0``); otherwise the ``fundamental_matrix``
+        given, or None.
+    geometry : EpipolarGeometry or None
+        With ``rectified=False``: how F was found (bootstrap correspondences, inliers,
+        median epipolar error, or the reason none was accepted).
     """
 
     points_left: np.ndarray
@@ -111,6 +120,8 @@ class StereoMatchResult:
     refinement: Refinement | None = None
     row_offset: RowOffset | None = None
     match_timings: dict = field(default_factory=dict)
+    fundamental_matrix: np.ndarray | None = None
+    geometry: EpipolarGeometry | None = None
 
     def __post_init__(self):
         if self.passes is None:
@@ -153,7 +164,8 @@ class StereoMatchResult:
 
 
 def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_matrix=None,
-                 record_energy: bool = False, detector: DericheMoravecDetector | None = None,
+                 rectified: bool = True, record_energy: bool = False,
+                 detector: DericheMoravecDetector | None = None,
                  matcher: HopfieldMatcher | None = None, **params) -> StereoMatchResult:
     """Detect Moravec points on a stereo pair and match them with the Hopfield network.
 
@@ -167,6 +179,17 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     fundamental_matrix : (3, 3) array-like, optional
         Match an unrectified pair along epipolar lines (``x_r^T F x_l = 0``, as
         ``cv2.findFundamentalMat`` returns it) instead of image rows.
+    rectified : bool
+        False for a pair whose geometry is unknown (two photos): the epipolar geometry and
+        the disparity range are estimated from the pair itself, the right image is
+        aligned with the left one and the network searches the epipolar band
+        (``hopmatch.matching.unrectified``; docs/pipelines.md). The result then carries
+        ``fundamental_matrix`` and ``geometry``; when the pair supports no geometry (no
+        texture, unrelated images) it is empty and a
+        :class:`~hopmatch.matching.geometry.GeometryWarning` says why. Cannot be combined
+        with ``fundamental_matrix`` or a disparity range (it finds its own). Unless given
+        (as a keyword), ``vertical_threshold`` is then
+        :data:`~hopmatch.matching.unrectified.UNRECTIFIED_VERTICAL`.
     record_energy : bool
         Keep the network energy after every iteration (``result.network.energy_trace``).
     detector, matcher : DericheMoravecDetector, HopfieldMatcher, optional
@@ -220,6 +243,13 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                                                                           "match_stereo")
     fundamental = as_fundamental_matrix(fundamental_matrix, "fundamental_matrix",
                                         optional=True)
+    if not isinstance(rectified, (bool, np.bool_)):
+        raise InvalidTypeError(f"`rectified` must be True or False, got {rectified!r}")
+    if not rectified:
+        if matcher is None and "vertical_threshold" not in match_params:
+            config = dataclasses.replace(config, vertical_threshold=UNRECTIFIED_VERTICAL)
+        return _match_unrectified(left, right, detector, config, fundamental, mask_left,
+                                  mask_right, record_energy)
 
     t0 = time.perf_counter()
     pts_l, resp_l, desc_l, g_l, gray_l = detector.detect_and_describe(
@@ -354,3 +384,30 @@ def warm_up_beyond_network() -> None:
     guided_pass(pts, pts, desc, desc, g, g, matched, matched, np.zeros(len(pts)),
                 matcher_config({}))
     refine_disparities(g, g, pts, pts[:, 0], pts[:, 1])
+
+
+def _match_unrectified(left, right, detector, config, fundamental, mask_left, mask_right,
+                       record_energy) -> StereoMatchResult:
+    """``match_stereo(..., rectified=False)``: :func:`match_unrectified` as a result."""
+    if fundamental is not None:
+        raise InvalidArgumentError(
+            "match_stereo got rectified=False and a fundamental_matrix: rectified=False "
+            "estimates F from the pair; to match along a known F pass only "
+            "fundamental_matrix")
+    if config.max_disparity is not None:
+        raise InvalidArgumentError(
+            f"match_stereo got rectified=False and max_disparity={config.max_disparity:g}: "
+            "the disparity range of an unrectified pair is found with its geometry (in the "
+            "frame the right image is aligned to); leave max_disparity=None")
+    pts_l, resp_l, pts_r, resp_r, net, geometry, timings = match_unrectified(
+        left, right, detector, config, mask_left=mask_left, mask_right=mask_right,
+        record_energy=record_energy)
+    if net is None:
+        warn(f"match_stereo(rectified=False) found no epipolar geometry, so no matches: "
+             f"{geometry.reason}", GeometryWarning)
+        net = empty_network_result(config)
+    return StereoMatchResult(
+        points_left=pts_l, points_right=pts_r, responses_left=resp_l, responses_right=resp_r,
+        query_idx=net.query_idx, train_idx=net.train_idx, distances=net.distances,
+        network=net, keypoint_size=float(detector.getWindowSize()), timings=timings,
+        fundamental_matrix=geometry.fundamental, geometry=geometry)

@@ -1,0 +1,342 @@
+"""Unrectified pairs and self-finding disparity ranges (issue 18): the figures of its goals.
+
+Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large ranges]``
+(single thread; needs ``../shared/data`` or ``$HOPMATCH_SHARED_DATA`` for every section but
+``large``).
+
+- ``perturbed``: every shared scene with ground truth, its right image warped by
+  :data:`PERTURBATIONS` (rotation about the centre in degrees, vertical shift in px, scale;
+  ``cv2.warpAffine``, bilinear), matched by ``match_stereo(left, right, rectified=False)``
+  with no other parameter. A match is correct when its right point is within 1 px (2-D,
+  Euclidean) of the truth ``A (xl - d, yl)``; ``ref`` is what the defaults find on the
+  rectified pair with its range given (``min/max_disparity`` = ground-truth range +- 1 px,
+  correct@1px as ``hopmatch eval`` scores it), ``bound`` the share of those reference
+  matches whose right point stays in the warped image. ``F err`` is the distance of 2000
+  true correspondences (from the ground truth) to the epipolar lines of the returned F:
+  median and 95th percentile, px.
+- ``chessboards``: OpenCV's 13 chessboard pairs, raw and undistorted with their
+  calibration (intrinsics by ``cv2.calibrateCamera``, extrinsics by ``cv2.stereoCalibrate``
+  of the chessboard corners, as ``examples/stereo_calibration.py`` does); the share of
+  matches within 1 px of the calibrated epipolar lines (points undistorted first), for
+  ``match_stereo(..., rectified=False)`` and for the cv2 path
+  (``HopfieldMatcher.estimateFundamentalMatrix`` then ``match``).
+- ``large``: motorcycle upsampled to 2964 x 2000 (as ``benchmarks/scale.py``), rectified,
+  ``match_stereo(left, right)`` with no parameter, in a fresh process: time, peak memory,
+  the range found, precision at 1 and 2 px of the upsampled ground truth, and SIFT
+  ``detectAndCompute`` on both images for scale.
+- ``ranges``: the range ``max_disparity=None`` finds on every shared scene against its
+  ground truth (share of ground-truth pixels inside).
+
+``--smoke``: motorcycle (centre crop) and tsukuba, one perturbation, two chessboard pairs,
+a 1000 x 675 large pair: a check that the script works (figures meaningless).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import subprocess
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from _common import add_smoke_option, single_thread, smoke_scene, smoke_scenes  # noqa: E402
+
+import hopmatch  # noqa: E402
+from hopmatch import datasets  # noqa: E402
+from hopmatch.evaluate import score_matches  # noqa: E402
+from hopmatch.matching.geometry import symmetric_epipolar_error  # noqa: E402
+from hopmatch.stereo import StereoCalibration, epipolar_distances  # noqa: E402
+
+#: (rotation in degrees, vertical shift in px, scale) of the right image: the extremes of
+#: the issue's range both ways, and the pair of its "where it stands" paragraph.
+PERTURBATIONS = ((5.0, 30.0, 1.03), (-5.0, -30.0, 0.97), (2.0, 8.0, 1.0))
+SECTIONS = ("perturbed", "chessboards", "large", "ranges")
+PATTERN = (9, 6)
+LARGE = (2964, 2000)
+SMOKE_LARGE = (1000, 675)
+
+
+def perturbation(size, angle, dy, scale) -> np.ndarray:
+    """The 2 x 3 affine map of the right image: rotation about the centre, scale, shift."""
+    w, h = size
+    A = cv2.getRotationMatrix2D(((w - 1) / 2, (h - 1) / 2), angle, scale)
+    A[1, 2] += dy
+    return A
+
+
+def truth(left_pts, disparity, A):
+    """``(true right points, known)``: ``A (xl - d, yl)`` of each left point and whether its
+    ground truth is known and the point lands inside the warped image."""
+    h, w = disparity.shape
+    xi = np.floor(left_pts[:, 0] + 0.5).astype(int)
+    yi = np.floor(left_pts[:, 1] + 0.5).astype(int)
+    ok = (xi >= 0) & (xi < w) & (yi >= 0) & (yi < h)
+    d = np.full(len(left_pts), np.nan)
+    d[ok] = disparity[yi[ok], xi[ok]]
+    t = np.c_[left_pts[:, 0] - d, left_pts[:, 1], np.ones(len(left_pts))] @ A.T
+    known = np.isfinite(d) & (t[:, 0] >= 0) & (t[:, 0] <= w - 1) & (t[:, 1] >= 0) & (
+        t[:, 1] <= h - 1)
+    return t, known
+
+
+def reference(scene):
+    """(correct@1px, matches) of the defaults on the rectified pair, its range given."""
+    v = scene.disparity[np.isfinite(scene.disparity)]
+    r = hopmatch.match_stereo(scene.left, scene.right, min_disparity=float(np.floor(v.min())) - 1,
+                              max_disparity=float(np.ceil(v.max())) + 1)
+    s = score_matches(r.matched_left, r.matched_right, scene.disparity, thresholds=(1.0,))
+    ok = np.zeros(len(r.query_idx), bool)
+    ok[np.flatnonzero(s.scored)[np.abs(s.errors) <= 1.0]] = True
+    ok &= np.abs(r.matched_left[:, 1] - r.matched_right[:, 1]) <= 1.0
+    return s.correct[1.0], r.matched_right[ok]
+
+
+def f_error(F, scene, A, rng) -> tuple[float, float]:
+    """Median and 95th percentile distance of 2000 true correspondences to F's lines."""
+    ys, xs = np.nonzero(np.isfinite(scene.disparity))
+    k = rng.choice(len(xs), min(2000, len(xs)), replace=False)
+    left = np.c_[xs[k], ys[k]].astype(np.float64)
+    right, known = truth(left, scene.disparity, A)
+    e = symmetric_epipolar_error(F, left[known], right[known, :2])
+    return float(np.median(e)), float(np.percentile(e, 95))
+
+
+def perturbed(names, perturbations) -> None:
+    print("## Perturbed pairs: match_stereo(left, right, rectified=False)\n")
+    print("| scene | rotation, shift, scale | matches | correct | precision | ref | ratio | "
+          "bound | F err median / p95 | search | s |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|")
+    rng = np.random.default_rng(0)
+    tot_c = tot_n = tot_ref = 0
+    ratios, precisions, f_medians = [], [], []
+    for name in names:
+        scene = datasets.load(name)
+        if name == "motorcycle" and len(names) <= 2:  # --smoke
+            scene = smoke_scene(scene)
+        ref, ref_right = reference(scene)
+        for angle, dy, scale in perturbations:
+            A = perturbation(scene.image_size, angle, dy, scale)
+            right = cv2.warpAffine(scene.right, A, scene.image_size, flags=cv2.INTER_LINEAR)
+            t0 = time.perf_counter()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                r = hopmatch.match_stereo(scene.left, right, rectified=False)
+            seconds = time.perf_counter() - t0
+            t, known = truth(r.matched_left, scene.disparity, A)
+            ok = known & (np.hypot(*(r.matched_right - t[:, :2]).T) <= 1.0)
+            n, c = int(known.sum()), int(ok.sum())
+            moved = np.c_[ref_right, np.ones(len(ref_right))] @ A.T
+            h, w = scene.shape
+            bound = float(np.mean((moved[:, 0] >= 7) & (moved[:, 0] <= w - 8) & (moved[:, 1] >= 7)
+                                  & (moved[:, 1] <= h - 8))) if len(moved) else float("nan")
+            fe = f_error(r.fundamental_matrix, scene, A, rng) if r.fundamental_matrix is not None \
+                else (float("nan"), float("nan"))
+            p = c / n if n else float("nan")
+            ratio = c / ref if ref else float("nan")
+            tot_c, tot_n, tot_ref = tot_c + c, tot_n + n, tot_ref + ref
+            ratios.append(ratio)
+            precisions.append(p)
+            f_medians.append(fe[0])
+            print(f"| {name} | {angle:+g} deg, {dy:+g} px, x{scale:g} | {len(r.query_idx)} | {c} | "
+                  f"{p:.3f} | {ref} | {ratio:.2f} | {bound:.2f} | {fe[0]:.2f} / {fe[1]:.2f} | "
+                  f"{r.geometry.search} | {seconds:.2f} |", flush=True)
+    print(f"\nAll pairs: {tot_c} correct of {tot_n} scored (pooled precision {tot_c / tot_n:.4f}), "
+          f"{tot_c / tot_ref:.3f}x the reference's {tot_ref} correct; per pair: ratio mean "
+          f"{np.nanmean(ratios):.3f}, min {np.nanmin(ratios):.2f}; precision min "
+          f"{np.nanmin(precisions):.3f}; F error median of medians "
+          f"{np.nanmedian(f_medians):.2f} px, max {np.nanmax(f_medians):.2f} px\n")
+
+
+def calibration(folder):
+    """StereoCalibration of the chessboard pairs in ``folder`` and their ids."""
+    ids = sorted(m.group(1) for p in folder.glob("left*.jpg")
+                 if (m := re.fullmatch(r"left(\d+)\.jpg", p.name)))
+    grid = np.zeros((PATTERN[0] * PATTERN[1], 3), np.float32)
+    grid[:, :2] = np.mgrid[0:PATTERN[0], 0:PATTERN[1]].T.reshape(-1, 2)
+    obj, lp, rp, used, size = [], [], [], [], None
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3)
+    for i in ids:
+        gl = cv2.imread(str(folder / f"left{i}.jpg"), cv2.IMREAD_GRAYSCALE)
+        gr = cv2.imread(str(folder / f"right{i}.jpg"), cv2.IMREAD_GRAYSCALE)
+        fl, cl = cv2.findChessboardCorners(gl, PATTERN)
+        fr, cr = cv2.findChessboardCorners(gr, PATTERN)
+        if fl and fr:
+            obj.append(grid)
+            lp.append(cv2.cornerSubPix(gl, cl, (11, 11), (-1, -1), crit))
+            rp.append(cv2.cornerSubPix(gr, cr, (11, 11), (-1, -1), crit))
+            used.append(i)
+        size = gl.shape[::-1]
+    _, k1, d1, _, _ = cv2.calibrateCamera(obj, lp, size, None, None)
+    _, k2, d2, _, _ = cv2.calibrateCamera(obj, rp, size, None, None)
+    _, k1, d1, k2, d2, r, t, _, _ = cv2.stereoCalibrate(obj, lp, rp, k1, d1, k2, d2, size,
+                                                        flags=cv2.CALIB_FIX_INTRINSIC)
+    return StereoCalibration(k1, d1, k2, d2, r, t, image_size=size), used
+
+
+def on_lines(cal, left, right, undistorted) -> tuple[int, int]:
+    """(matches within 1 px of the calibrated epipolar lines, matches)."""
+    if len(left) == 0:
+        return 0, 0
+    if not undistorted:
+        left = cv2.undistortPoints(np.float64(left).reshape(-1, 1, 2), cal.K1, cal.D1, P=cal.K1)
+        right = cv2.undistortPoints(np.float64(right).reshape(-1, 1, 2), cal.K2, cal.D2,
+                                    P=cal.K2)
+    d = epipolar_distances(np.reshape(left, (-1, 2)), np.reshape(right, (-1, 2)),
+                           cal.fundamental_matrix())
+    return int((d <= 1.0).sum()), len(d)
+
+
+def cv2_path(left, right):
+    """The cv2 classes: detectAndCompute, setPairInfo, estimateFundamentalMatrix, match."""
+    det = hopmatch.DericheMoravecDetector.create()
+    kl, dl = det.detectAndCompute(left, None)
+    kr, dr = det.detectAndCompute(right, None)
+    m = hopmatch.HopfieldMatcher.create()
+    m.setPairInfo(kl, kr, left.shape[1::-1], right.shape[1::-1])
+    if m.estimateFundamentalMatrix(dl, dr).fundamental is None:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    ms = m.match(dl, dr)
+    return (cv2.KeyPoint_convert(kl)[[x.queryIdx for x in ms]].reshape(-1, 2),
+            cv2.KeyPoint_convert(kr)[[x.trainIdx for x in ms]].reshape(-1, 2))
+
+
+def chessboards(smoke: bool) -> None:
+    folder = datasets.shared_data_dir() / "opencv_stereo_calib"
+    cal, used = calibration(folder)
+    if smoke:
+        used = used[:2]
+    print("## Chessboard pairs: matches within 1 px of the calibrated epipolar lines\n")
+    print("| pair | images | match_stereo(rectified=False) | cv2 path "
+          "(estimateFundamentalMatrix) |")
+    print("|---|---|---:|---:|")
+    totals = {}
+    for undistorted in (False, True):
+        for i in used:
+            left = cv2.imread(str(folder / f"left{i}.jpg"))
+            right = cv2.imread(str(folder / f"right{i}.jpg"))
+            if undistorted:
+                left = cv2.undistort(left, cal.K1, cal.D1)
+                right = cv2.undistort(right, cal.K2, cal.D2)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                r = hopmatch.match_stereo(left, right, rectified=False)
+                cells = [on_lines(cal, r.matched_left, r.matched_right, undistorted),
+                         on_lines(cal, *cv2_path(left, right), undistorted)]
+            label = "undistorted" if undistorted else "raw"
+            for k, (c, n) in enumerate(cells):
+                a, b = totals.get((label, k), (0, 0))
+                totals[label, k] = (a + c, b + n)
+            print(f"| {i} | {label} | " + " | ".join(
+                f"{c} of {n}" + (f" ({c / n:.1%})" if n else "") for c, n in cells) + " |",
+                flush=True)
+    print()
+    for label in ("raw", "undistorted"):
+        print(f"All pairs, {label}: " + "; ".join(
+            f"{name} {c} of {n} ({c / max(n, 1):.1%})" for name, (c, n) in
+            (("match_stereo", totals[label, 0]), ("cv2 path", totals[label, 1]))))
+    print()
+
+
+LARGE_CHILD = r"""
+import json, resource, sys, time
+sys.path.insert(0, {here!r})
+import cv2, numpy as np
+from _common import motorcycle_bgr, single_thread
+single_thread()
+import hopmatch
+from hopmatch.evaluate import score_matches
+left, right, gt = motorcycle_bgr()
+size = (int(sys.argv[1]), int(sys.argv[2]))
+left = cv2.resize(cv2.cvtColor(left, cv2.COLOR_BGR2GRAY), size, interpolation=cv2.INTER_CUBIC)
+right = cv2.resize(cv2.cvtColor(right, cv2.COLOR_BGR2GRAY), size, interpolation=cv2.INTER_CUBIC)
+gt = cv2.resize(gt, size, interpolation=cv2.INTER_NEAREST) * (size[0] / gt.shape[1])
+if sys.argv[3] == "sift":
+    sift = cv2.SIFT_create()
+    t0 = time.perf_counter()
+    sift.detectAndCompute(left, None); sift.detectAndCompute(right, None)
+    out = dict(seconds=time.perf_counter() - t0)
+else:
+    hopmatch.warmup()
+    t0 = time.perf_counter()
+    r = hopmatch.match_stereo(left, right)
+    out = dict(seconds=time.perf_counter() - t0, keypoints=len(r.points_left),
+               matches=len(r.query_idx), lo=r.network.config.min_disparity,
+               hi=r.network.config.max_disparity, neurons=len(r.network.neuron_left))
+    s = score_matches(r.matched_left, r.matched_right, gt, thresholds=(1.0, 2.0))
+    out.update(p1=s.precision[1.0], p2=s.precision[2.0], c1=s.correct[1.0])
+out["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(json.dumps(out))
+"""
+
+
+def large(size) -> None:
+    runs = {}
+    for mode in ("hopmatch", "sift"):
+        proc = subprocess.run([sys.executable, "-c", LARGE_CHILD.format(here=str(HERE)),
+                               str(size[0]), str(size[1]), mode], capture_output=True, text=True)
+        if proc.returncode:
+            raise RuntimeError(f"the {mode} run failed:\n{proc.stderr}")
+        runs[mode] = json.loads(proc.stdout.strip().splitlines()[-1])
+    h, s = runs["hopmatch"], runs["sift"]
+    print(f"## Large pair: motorcycle upsampled to {size[0]} x {size[1]}, "
+          "match_stereo(left, right) with no parameter\n")
+    print(f"range found: [{h['lo']:.1f}, {h['hi']:.1f}] px; keypoints {h['keypoints']}; "
+          f"neurons {h['neurons']}; matches {h['matches']}")
+    print(f"precision: {h['p1']:.3f} at 1 px, {h['p2']:.3f} at 2 px ({h['c1']} correct at 1 px)")
+    print(f"time: {h['seconds']:.2f} s; peak memory {h['peak_mb']:.0f} MB; SIFT detectAndCompute "
+          f"on both images {s['seconds']:.2f} s (ratio {h['seconds'] / s['seconds']:.2f})\n")
+
+
+def ranges(names) -> None:
+    print("## Ranges found with max_disparity=None (rectified pairs)\n")
+    print("| scene | found | ground truth | ground-truth pixels inside |")
+    print("|---|---|---|---:|")
+    det = hopmatch.DericheMoravecDetector()
+    for name in names:
+        s = datasets.load(name)
+        kl, dl = det.detectAndCompute(s.left, None)
+        kr, dr = det.detectAndCompute(s.right, None)
+        m = hopmatch.HopfieldMatcher()
+        m.setPairInfo(kl, kr, s.image_size, s.image_size)
+        c = m.run(dl, dr).config
+        v = s.disparity[np.isfinite(s.disparity)]
+        inside = np.mean((v >= c.min_disparity) & (v <= c.max_disparity))
+        print(f"| {name} | {c.min_disparity:.1f}..{c.max_disparity:.1f} | "
+              f"{v.min():.1f}..{v.max():.1f} | {inside:.4f} |")
+    print()
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sections", nargs="*", choices=SECTIONS, default=list(SECTIONS))
+    ap.add_argument("--scenes", nargs="*", help="scene names (default: every shared scene)")
+    args = add_smoke_option(ap).parse_args(argv)
+    single_thread()
+    names = args.scenes or datasets.list_scenes()
+    if args.smoke and not args.scenes:
+        names = smoke_scenes(names)
+    shared = datasets.shared_data_dir(must_exist=False) is not None
+    for section in args.sections:
+        if section == "large":
+            large(SMOKE_LARGE if args.smoke else LARGE)
+        elif not shared and section == "chessboards":
+            print("## Chessboard pairs: skipped (no shared data)\n")
+        elif section == "perturbed":
+            perturbed(names, PERTURBATIONS[:1] if args.smoke else PERTURBATIONS)
+        elif section == "chessboards":
+            chessboards(args.smoke)
+        elif section == "ranges":
+            ranges(names)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

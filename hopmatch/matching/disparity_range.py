@@ -1,0 +1,231 @@
+"""A disparity range that finds itself: when ``max_disparity`` is None, a coarse pass of the
+network on a thinned set of left points measures the range the full pass then searches.
+
+The coarse pass is a sparse stand-in for an image pyramid: it needs only the keypoints and
+descriptors, so :class:`~hopmatch.HopfieldMatcher` (which never sees the images) and
+:func:`~hopmatch.match_stereo` resolve the range the same way. Keeping one left point in
+about ``f**2`` (one per grid cell) is what a pyramid level ``f`` times coarser would see, so
+every length of SPEC section 3 that measures the neighbourhood grows with it: the neighbour
+window (``neighbour_width x neighbour_height``) and the compatibility edge θ (eq. 5) are
+multiplied by ``f``. Every right point stays a candidate, so a thinned left point keeps its
+true partner. The matches of the coarse pass give the range (trimmed of isolated extremes);
+the full pass searches it widened by :data:`RANGE_FACTOR` and :data:`RANGE_MARGIN`
+(docs/parameters.md, "Disparity range").
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import NamedTuple
+
+import numpy as np
+
+from .._warnings import warn
+from ..errors import BudgetExceededError, DisparityRangeWarning
+
+#: Left points the coarse pass keeps (one per cell of a grid over their bounding box).
+COARSE_POINTS = 1500
+#: The widest search of the coarse pass, as a fraction of the left image's width (or of the
+#: keypoints' horizontal extent): ``[min_disparity or -fraction W, fraction W]``. It is the
+#: range hopmatch searched by default before the range found itself.
+SEARCH_FRACTION = 0.25
+#: The coarse pass must keep at least this many matches for its range to be trusted; with
+#: fewer the full pass searches the whole coarse search range (and warns if even that
+#: fails).
+MIN_MATCHES = 20
+#: Extremes of the coarse matches separated from the rest by a gap of more than this
+#: fraction of the width (and at most :data:`MAX_TRIMMED` of them) are dropped as outliers.
+GAP_FRACTION = 0.02
+MAX_TRIMMED = 0.02
+#: The found range ``[lo, hi]`` is widened multiplicatively (a nearest or farthest surface
+#: the coarse pass missed is at most this factor nearer or farther: ``[lo / RANGE_FACTOR,
+#: hi * RANGE_FACTOR]`` for positive disparities) ...
+RANGE_FACTOR = 1.5
+#: ... and by this fraction of the width plus :data:`RANGE_PIXELS` on both sides.
+RANGE_MARGIN = 0.01
+RANGE_PIXELS = 2.0
+
+
+class DisparityRange(NamedTuple):
+    """A resolved search range and where it came from.
+
+    ``source`` is ``'given'`` (``max_disparity`` set by the caller), ``'coarse'`` (found by
+    the coarse pass from ``n_matches`` matches spanning ``found``), ``'fallback'`` (the
+    coarse pass kept too few matches: the whole coarse search range) or ``'empty'`` (no
+    keypoints or descriptors on a side: the coarse search range, nothing to find)."""
+
+    min_disparity: float
+    max_disparity: float
+    source: str
+    found: tuple[float, float] | None = None
+    n_matches: int = 0
+
+
+def search_width(query_size, query_pts, train_pts) -> float:
+    """The width the default ranges are fractions of: the left image's, or when unknown the
+    keypoints' horizontal extent (``max x + 1``), 0 without keypoints."""
+    if query_size is not None:
+        return float(query_size[0])
+    xs = [float(pts[:, 0].max()) for pts in (query_pts, train_pts) if len(pts)]
+    return max(xs) + 1.0 if xs else 0.0
+
+
+def thin_points(points: np.ndarray, target: int) -> np.ndarray:
+    """Indices (increasing) of at most about ``target`` of ``points``, one per cell of a
+    square grid over their bounding box (the first point of each cell in index order);
+    all indices when there are at most ``target`` points."""
+    n = len(points)
+    if n <= target:
+        return np.arange(n)
+    x = points[:, 0].astype(np.float64)
+    y = points[:, 1].astype(np.float64)
+    cell = np.sqrt((np.ptp(x) + 1.0) * (np.ptp(y) + 1.0) / target)
+    cx = np.floor((x - x.min()) / cell).astype(np.int64)
+    cy = np.floor((y - y.min()) / cell).astype(np.int64)
+    _, first = np.unique(cx * (int(cy.max()) + 1) + cy, return_index=True)
+    return np.sort(first)
+
+
+def trimmed_extent(values: np.ndarray, gap: float,
+                   max_trimmed: float = MAX_TRIMMED) -> tuple[float, float]:
+    """``(min, max)`` of ``values`` after dropping, at each end, the values cut off from the
+    rest by a gap larger than ``gap``, as long as at most ``max_trimmed`` of them go."""
+    v = np.sort(np.asarray(values, dtype=np.float64))
+    n = len(v)
+    limit = int(max_trimmed * n)
+    jumps = np.flatnonzero(np.diff(v) > gap)
+    lo = [j + 1 for j in jumps if j + 1 <= limit]
+    hi = [j for j in jumps if n - 1 - j <= limit]
+    a = max(lo) if lo else 0
+    b = min(hi) if hi else n - 1
+    return float(v[a]), float(v[b])
+
+
+def widen(lo: float, hi: float, width: float) -> tuple[float, float]:
+    """The search range around a found range ``[lo, hi]``: each bound moved outwards by the
+    factor :data:`RANGE_FACTOR` (applied to its magnitude, so a negative bound moves left
+    too) and by ``RANGE_MARGIN * width + RANGE_PIXELS``."""
+    pad = RANGE_MARGIN * width + RANGE_PIXELS
+    low = lo / RANGE_FACTOR if lo > 0 else lo * RANGE_FACTOR
+    high = hi * RANGE_FACTOR if hi > 0 else hi / RANGE_FACTOR
+    return low - pad, high + pad
+
+
+def coarse_config(config, n_left: int, n_kept: int, min_disparity: float,
+                  max_disparity: float):
+    """``config`` for the coarse pass over ``n_kept`` of ``n_left`` left points: neighbour
+    window and θ scaled by ``f = sqrt(n_left / n_kept)``, the given search range."""
+    f = float(np.sqrt(n_left / max(n_kept, 1)))
+    return dataclasses.replace(
+        config, min_disparity=float(min_disparity), max_disparity=float(max_disparity),
+        neighbour_width=config.neighbour_width * f,
+        neighbour_height=config.neighbour_height * f, theta=config.theta * f)
+
+
+def coarse_extent(config, q_pts, t_pts, qd, td, bottom: float, top: float, width: float,
+                  run_network, *, mask=None, fundamental=None):
+    """``(lo, hi, n)``: the trimmed extent of the ``n`` matches of the coarse pass searching
+    ``[bottom, top]``, or None when it keeps fewer than :data:`MIN_MATCHES` (or exceeds a
+    budget)."""
+    if not len(q_pts) or not len(t_pts) or not len(qd) or not len(td):
+        return None
+    keep = thin_points(q_pts, COARSE_POINTS)
+    cfg = coarse_config(config, len(q_pts), len(keep), bottom, top)
+    try:
+        coarse = run_network(np.ascontiguousarray(q_pts[keep]), t_pts,
+                             np.ascontiguousarray(qd[keep]), td, cfg,
+                             mask=None if mask is None else np.ascontiguousarray(mask[keep]),
+                             fundamental=fundamental)
+    except BudgetExceededError:
+        return None
+    n = len(coarse.query_idx)
+    if n < MIN_MATCHES:
+        return None
+    d = (q_pts[keep][coarse.query_idx, 0].astype(np.float64)
+         - t_pts[coarse.train_idx, 0])
+    lo, hi = trimmed_extent(d, GAP_FRACTION * width + RANGE_PIXELS)
+    return lo, hi, n
+
+
+def resolve_disparity_range(config, q_pts, t_pts, qd, td, query_size, run_network, *,
+                            mask=None, fundamental=None) -> DisparityRange:
+    """The search range of the full pass.
+
+    Parameters
+    ----------
+    config : MatcherConfig
+        ``max_disparity`` None asks for the coarse pass; ``min_disparity`` is then a floor
+        of the range (None: no floor, the range may be negative). With ``max_disparity``
+        given, ``min_disparity`` None means 0.
+    q_pts, t_pts : (N, 2) float32 ndarrays
+        Left and right points (checked).
+    qd, td : ndarrays
+        Their descriptors (checked).
+    query_size : (width, height) or None
+        The left image's size (see :func:`search_width`).
+    run_network : callable
+        :func:`~hopmatch.matching.network.run_hopfield_network` (passed in, so that this
+        module does not import the network module that calls it).
+    mask, fundamental
+        As for ``run_hopfield_network``: the coarse pass honours both.
+
+    Returns
+    -------
+    DisparityRange
+    """
+    floor = config.min_disparity
+    if config.max_disparity is not None:
+        return DisparityRange(0.0 if floor is None else float(floor),
+                              float(config.max_disparity), "given")
+    width = search_width(query_size, q_pts, t_pts)
+    top = SEARCH_FRACTION * width
+    bottom = -top if floor is None else min(float(floor), top)
+    fallback = DisparityRange(bottom, top, "fallback")
+    if not len(q_pts) or not len(t_pts) or not len(qd) or not len(td):
+        return fallback._replace(source="empty")
+    found = coarse_extent(config, q_pts, t_pts, qd, td, bottom, top, width, run_network,
+                          mask=mask, fundamental=fundamental)
+    if found is None:
+        return fallback
+    lo, hi, n = found
+    low, high = widen(lo, hi, width)
+    if floor is not None:
+        low = max(low, float(floor))
+        high = max(high, low)
+    return DisparityRange(low, high, "coarse", (lo, hi), n)
+
+
+def run_in_range(run_network, found: DisparityRange, config, q_pts, t_pts, qd, td, **kwargs):
+    """``(result, config)`` of ``run_network(q_pts, t_pts, qd, td, config, **kwargs)``, where
+    ``config`` holds the range of ``found``. When a range found by the coarse pass exceeds
+    a budget (:class:`~hopmatch.errors.BudgetExceededError`), the full pass runs again on
+    the found range with only :data:`RANGE_PIXELS` of margin, after a
+    :class:`~hopmatch.errors.DisparityRangeWarning`; if that fails too, the first error is
+    raised."""
+    try:
+        return run_network(q_pts, t_pts, qd, td, config, **kwargs), config
+    except BudgetExceededError as exc:
+        if found.source != "coarse":
+            raise
+        lo, hi = found.found
+        low = max(lo - RANGE_PIXELS, found.min_disparity)
+        high = hi + RANGE_PIXELS
+        narrow = dataclasses.replace(config, min_disparity=low, max_disparity=max(high, low))
+        warn(f"max_disparity=None: the range found, [{found.min_disparity:g}, "
+             f"{found.max_disparity:g}], exceeds a budget ({exc}); searching the coarse "
+             f"matches' own range [{narrow.min_disparity:g}, {narrow.max_disparity:g}] "
+             "instead", DisparityRangeWarning)
+        try:
+            return run_network(q_pts, t_pts, qd, td, narrow, **kwargs), narrow
+        except BudgetExceededError:
+            raise exc from None
+
+
+def warn_fallback(found: DisparityRange, n_matches: int) -> None:
+    """Warn (:class:`~hopmatch.errors.DisparityRangeWarning`) when the range could not be
+    found and the full pass, searching the whole fallback range, found nothing either."""
+    if found.source == "fallback" and n_matches == 0:
+        warn(f"max_disparity=None: the coarse pass kept fewer than {MIN_MATCHES} matches, so "
+             f"the whole range [{found.min_disparity:g}, "
+             f"{found.max_disparity:g}] was searched, and no match was found there; give the "
+             "range (min_disparity, max_disparity) if you know it", DisparityRangeWarning)

@@ -1,0 +1,363 @@
+"""Epipolar geometry of an unrectified pair, found from the pair itself.
+
+Bootstrap correspondences (OpenCV SIFT on a pyramid level of at most
+:data:`BOOTSTRAP_SIDE` pixels, or the matcher's own descriptors compared in a
+two-dimensional window when only keypoints are known), a robust fundamental matrix
+(``cv2.findFundamentalMat`` with ``cv2.USAC_MAGSAC``), checks that refuse an F the
+correspondences do not support (:class:`GeometryWarning`), a refit of F on the final
+matches, the similarity that lines up the rows of the two images
+(:func:`row_alignment`) and a row rectification close to the identity
+(:func:`rectifying_homographies`). ``F`` follows OpenCV's convention everywhere:
+``[xr, yr, 1] @ F @ [xl, yl, 1] == 0``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..errors import BudgetExceededError, HopmatchWarning
+from .candidates import candidate_pairs
+from .disparity_range import thin_points
+from .similarity import similarity_distance
+
+#: The bootstrap runs on the pyramid level whose longer side is at most this (``pyrDown``).
+BOOTSTRAP_SIDE = 800
+#: SIFT keypoints kept per image at that level, SIFT's contrast threshold (a quarter of
+#: OpenCV's default: low-texture scenes give too few correspondences with the default), and
+#: Lowe's ratio of the bootstrap matches (which must also be mutual nearest neighbours).
+BOOTSTRAP_FEATURES = 1500
+BOOTSTRAP_CONTRAST = 0.01
+BOOTSTRAP_RATIO = 0.8
+#: MAGSAC's threshold (pixels of the full-resolution image, per pyramid level of the
+#: bootstrap: the bootstrap points are that much coarser), confidence and iterations.
+F_THRESHOLD = 1.0
+F_CONFIDENCE = 0.9999
+F_ITERATIONS = 10000
+#: An F is refused unless at least MIN_INLIERS bootstrap correspondences support it, at
+#: least MIN_INLIER_RATIO of them (repetitive texture, a chessboard, makes consistent false
+#: correspondences that agree on a wrong F, but not so many), and at least CHANCE_FACTOR
+#: times as many as support the best F of the same correspondences with their right
+#: points shuffled (a permutation test: what MAGSAC finds by chance in point sets of that
+#: size and spread), plus CHANCE_MARGIN.
+MIN_INLIERS = 30
+MIN_INLIER_RATIO = 0.25
+CHANCE_FACTOR = 2.0
+CHANCE_MARGIN = 10
+#: The refit on the final matches: MAGSAC threshold (full-resolution pixels).
+REFIT_THRESHOLD = 1.0
+#: Points compared in the descriptor bootstrap, the half-height of its window (fraction of
+#: the image height, at least :data:`WINDOW_MIN` px), its ratio test, and the most pairs it
+#: compares.
+DESCRIPTOR_POINTS = 1500
+WINDOW_FRACTION = 0.12
+WINDOW_MIN = 32.0
+DESCRIPTOR_RATIO = 0.8
+DESCRIPTOR_MAX_PAIRS = 6_000_000
+
+
+class GeometryWarning(HopmatchWarning):
+    """No epipolar geometry could be estimated from the pair (``match_stereo(...,
+    rectified=False)``, ``HopfieldMatcher.estimateFundamentalMatrix``): too few
+    correspondences, or too few of them agree on one fundamental matrix. The result is
+    empty (no matches) rather than built on a wrong F."""
+
+
+@dataclass(frozen=True)
+class EpipolarGeometry:
+    """What :func:`estimate_geometry` found.
+
+    Attributes
+    ----------
+    fundamental : (3, 3) float64 ndarray or None
+        ``[xr, yr, 1] @ F @ [xl, yl, 1] == 0``; None when the pair did not support one
+        (``reason`` says why).
+    left_points, right_points : (N, 2) float32 ndarrays
+        The bootstrap correspondences, in full-resolution pixels.
+    inliers : (N,) bool ndarray
+        Which of them agree with ``fundamental``.
+    median_error : float
+        Median symmetric epipolar distance of the inliers, in pixels (NaN without F).
+    source : str
+        ``'sift'`` or ``'descriptors'``: where the correspondences came from (``'refit'``:
+        the final matches, F refitted on them).
+    reason : str or None
+        Why no F was accepted.
+    search : str or None
+        How the network searched the pair (``hopmatch.matching.unrectified``): ``'aligned'``
+        (rows of the right image aligned by a similarity), ``'rectified'`` (rows of a
+        projective rectification) or ``'epipolar'`` (the band of F).
+    """
+
+    fundamental: np.ndarray | None
+    left_points: np.ndarray
+    right_points: np.ndarray
+    inliers: np.ndarray
+    median_error: float
+    source: str
+    reason: str | None = None
+    search: str | None = None
+
+    @property
+    def n_correspondences(self) -> int:
+        """Number of bootstrap correspondences."""
+        return len(self.left_points)
+
+    @property
+    def n_inliers(self) -> int:
+        """Number of them that agree with ``fundamental``."""
+        return int(self.inliers.sum())
+
+    @property
+    def inlier_ratio(self) -> float:
+        """``n_inliers / n_correspondences`` (0 without correspondences)."""
+        return self.n_inliers / self.n_correspondences if self.n_correspondences else 0.0
+
+
+def symmetric_epipolar_error(F, left, right) -> np.ndarray:
+    """Mean of the two point-to-epipolar-line distances of each correspondence, pixels."""
+    hl = np.c_[left.astype(np.float64), np.ones(len(left))]
+    hr = np.c_[right.astype(np.float64), np.ones(len(right))]
+    lr = hl @ F.T          # lines in the right image
+    ll = hr @ F            # lines in the left image
+    num = np.abs(np.einsum("ij,ij->i", hr, lr))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = 0.5 * (num / np.hypot(lr[:, 0], lr[:, 1]) + num / np.hypot(ll[:, 0], ll[:, 1]))
+    return np.where(np.isfinite(d), d, np.inf)
+
+
+def to_uint8(gray: np.ndarray) -> np.ndarray:
+    """A grey image as uint8 for OpenCV's feature detectors (16-bit and float images are
+    stretched from their minimum to their maximum)."""
+    if gray.dtype == np.uint8:
+        return gray
+    g = gray.astype(np.float32)
+    lo, hi = float(g.min()), float(g.max())
+    return np.zeros(g.shape, np.uint8) if hi <= lo else cv2.convertScaleAbs(
+        g, alpha=255.0 / (hi - lo), beta=-255.0 * lo / (hi - lo))
+
+
+def pyramid_level(gray: np.ndarray, max_side: int):
+    """``(image, level)``: ``gray`` reduced by ``cv2.pyrDown`` until its longer side is at
+    most ``max_side``; a point ``p`` of the reduced image is ``(p + 0.5) * 2**level - 0.5``
+    in ``gray``."""
+    level = 0
+    while max(gray.shape[:2]) > max_side and min(gray.shape[:2]) >= 32:
+        gray = cv2.pyrDown(gray)
+        level += 1
+    return gray, level
+
+
+def sift_correspondences(left_gray, right_gray):
+    """``(left_points, right_points, level)``: SIFT matches (Lowe's ratio test
+    :data:`BOOTSTRAP_RATIO`, mutual) between the pyramid levels of two grey images whose
+    longer side is at most :data:`BOOTSTRAP_SIDE`, in full-resolution pixels."""
+    ratio = BOOTSTRAP_RATIO
+    a, level = pyramid_level(to_uint8(left_gray), BOOTSTRAP_SIDE)
+    b, _ = pyramid_level(to_uint8(right_gray), BOOTSTRAP_SIDE)
+    sift = cv2.SIFT_create(nfeatures=BOOTSTRAP_FEATURES, contrastThreshold=BOOTSTRAP_CONTRAST)
+    ka, da = sift.detectAndCompute(a, None)
+    kb, db = sift.detectAndCompute(b, None)
+    empty = np.zeros((0, 2), np.float32)
+    if da is None or db is None or len(ka) < 2 or len(kb) < 2:
+        return empty, empty, level
+    bf = cv2.BFMatcher(cv2.NORM_L2)
+    fwd = bf.knnMatch(da, db, k=2)
+    back = {m[0].queryIdx: m[0].trainIdx for m in bf.knnMatch(db, da, k=1) if m}
+    pairs = [(m.queryIdx, m.trainIdx) for m, n in (p for p in fwd if len(p) == 2)
+             if m.distance < ratio * n.distance and back.get(m.trainIdx) == m.queryIdx]
+    if not pairs:
+        return empty, empty, level
+    qi, ti = np.array(pairs).T
+    pa = cv2.KeyPoint_convert(ka)[qi]
+    pb = cv2.KeyPoint_convert(kb)[ti]
+    s = float(2 ** level)
+    return ((pa + 0.5) * s - 0.5).astype(np.float32), ((pb + 0.5) * s - 0.5).astype(
+        np.float32), level
+
+
+def descriptor_correspondences(q_pts, t_pts, qd, td, size, *, min_disparity=None,
+                               max_disparity=None, n_points: int = DESCRIPTOR_POINTS,
+                               ratio: float = DESCRIPTOR_RATIO,
+                               max_pairs: int = DESCRIPTOR_MAX_PAIRS):
+    """``(left_points, right_points)``: the clear best look-alikes (by the network's
+    similarity distance, eqs. 7-9, ratio test) of a thinned set of left points among the
+    right points of a two-dimensional window: ``xl - xr`` within the disparity range (by
+    default plus or minus a quarter of the width) and ``|yl - yr|`` within
+    :data:`WINDOW_FRACTION` of the height. Fewer points are compared when the window would
+    hold more than ``max_pairs`` pairs."""
+    empty = np.zeros((0, 2), np.float32)
+    if len(q_pts) < 2 or len(t_pts) < 2:
+        return empty, empty
+    width, height = size
+    hi = 0.25 * width if max_disparity is None else float(max_disparity)
+    lo = -0.25 * width if min_disparity is None else float(min_disparity)
+    band = max(WINDOW_MIN, WINDOW_FRACTION * height)
+    keep = thin_points(q_pts, n_points)
+    while True:
+        left = np.ascontiguousarray(q_pts[keep])
+        try:
+            ni, nk = candidate_pairs(left, t_pts, lo, hi, band, max_pairs)
+            break
+        except BudgetExceededError:
+            if len(keep) <= 2 * MIN_INLIERS:
+                return empty, empty
+            keep = keep[::2]
+    if len(ni) == 0:
+        return empty, empty
+    sim = similarity_distance(np.ascontiguousarray(qd[keep]), td, ni, nk)
+    order = np.lexsort((sim, ni))
+    ni, nk, sim = ni[order], nk[order], sim[order]
+    first = np.flatnonzero(np.r_[True, ni[1:] != ni[:-1]])
+    has_two = np.diff(np.r_[first, len(ni)]) >= 2
+    best, second = first[has_two], first[has_two] + 1
+    clear = sim[best] < ratio * sim[second]
+    best = best[clear]
+    return left[ni[best]], np.ascontiguousarray(t_pts[nk[best]])
+
+
+def magsac(left, right, threshold):
+    """``(F, mask)`` of ``cv2.findFundamentalMat`` with ``cv2.USAC_MAGSAC`` (None, None when
+    OpenCV finds none)."""
+    try:
+        F, mask = cv2.findFundamentalMat(left.astype(np.float64), right.astype(np.float64),
+                                         cv2.USAC_MAGSAC, threshold, F_CONFIDENCE,
+                                         F_ITERATIONS)
+    except cv2.error:
+        return None, None
+    if F is None or F.shape != (3, 3) or not np.isfinite(F).all():
+        return None, None
+    return F, mask
+
+
+def chance_inliers(left, right, threshold) -> int:
+    """Inliers of the best F (:func:`magsac`) of ``left`` with ``right`` shuffled (a fixed
+    permutation): the support a fundamental matrix finds in unrelated points."""
+    perm = np.random.default_rng(0).permutation(len(right))
+    F, mask = magsac(left, right[perm], threshold)
+    return 0 if F is None or mask is None else int((mask.ravel() != 0).sum())
+
+
+def robust_fundamental(left, right, threshold: float = F_THRESHOLD, source: str = "sift",
+                       *, min_inliers: int = MIN_INLIERS) -> EpipolarGeometry:
+    """F of correspondences by MAGSAC (``cv2.USAC_MAGSAC``), refused (``fundamental`` None,
+    ``reason`` set) when fewer than ``min_inliers`` or than :data:`MIN_INLIER_RATIO` of
+    them agree, or not clearly more than agree by chance (:func:`chance_inliers`,
+    :data:`CHANCE_FACTOR`)."""
+    left = np.ascontiguousarray(left, np.float32).reshape(-1, 2)
+    right = np.ascontiguousarray(right, np.float32).reshape(-1, 2)
+    n = len(left)
+    none = np.zeros(n, bool)
+    if n < max(8, min_inliers):
+        return EpipolarGeometry(None, left, right, none, float("nan"), source, (
+            f"only {n} bootstrap correspondences were found between the images (at least "
+            f"{max(8, min_inliers)} are needed): the images have too little texture, or "
+            "do not show the same scene"))
+    F, mask = magsac(left, right, threshold)
+    if F is None:
+        return EpipolarGeometry(None, left, right, none, float("nan"), source, (
+            f"no fundamental matrix fits the {n} bootstrap correspondences (a degenerate "
+            "configuration: points on a line, or a plane seen without parallax)"))
+    F = np.ascontiguousarray(F / np.linalg.norm(F), np.float64)
+    err = symmetric_epipolar_error(F, left, right)
+    inliers = err <= threshold if mask is None else (mask.ravel() != 0) & (err <= 2 * threshold)
+    k = int(inliers.sum())
+    median = float(np.median(err[inliers])) if k else float("nan")
+    chance = chance_inliers(left, right, threshold) if k >= min_inliers else 0
+    need = max(min_inliers, int(np.ceil(CHANCE_FACTOR * chance)) + CHANCE_MARGIN,
+               int(np.ceil(MIN_INLIER_RATIO * n)))
+    if k < need:
+        return EpipolarGeometry(None, left, right, inliers, median, source, (
+            f"only {k} of {n} bootstrap correspondences agree on a fundamental matrix "
+            f"({need} are needed; {chance} agree on one when the correspondences are "
+            "shuffled): the images do not seem to show the same scene from two "
+            "viewpoints, or too little of it"))
+    return EpipolarGeometry(F, left, right, inliers, median, source)
+
+
+def estimate_geometry(left_gray, right_gray) -> EpipolarGeometry:
+    """SIFT bootstrap correspondences of two grey images (:func:`sift_correspondences`),
+    then :func:`robust_fundamental`."""
+    pl, pr, level = sift_correspondences(left_gray, right_gray)
+    return robust_fundamental(pl, pr, F_THRESHOLD * 2 ** level, "sift")
+
+
+def estimate_geometry_of_points(q_pts, t_pts, qd, td, size) -> EpipolarGeometry:
+    """The matcher's own descriptors compared in a two-dimensional window
+    (:func:`descriptor_correspondences`; ``size`` is the left image's ``(width, height)``,
+    or None for the keypoints' extent), then :func:`robust_fundamental`."""
+    if size is None:
+        both = np.concatenate([q_pts, t_pts]) if len(q_pts) + len(t_pts) else np.zeros((1, 2))
+        size = (float(both[:, 0].max()) + 1.0, float(both[:, 1].max()) + 1.0)
+    pl, pr = descriptor_correspondences(q_pts, t_pts, qd, td, size)
+    return robust_fundamental(pl, pr, F_THRESHOLD, "descriptors")
+
+
+def refit_fundamental(geometry: EpipolarGeometry, left, right,
+                      threshold: float = REFIT_THRESHOLD) -> EpipolarGeometry:
+    """F of the final matches (``left[i]`` <-> ``right[i]``) by MAGSAC, or ``geometry``
+    unchanged when they do not support one better (fewer than :data:`MIN_INLIERS`)."""
+    refit = robust_fundamental(left, right, threshold, "refit")
+    return geometry if refit.fundamental is None else refit
+
+
+def transform_points(points, H) -> np.ndarray:
+    """``(N, 2)`` points through the 3 x 3 homography ``H``, float32."""
+    if len(points) == 0:
+        return np.zeros((0, 2), np.float32)
+    p = np.c_[np.asarray(points, np.float64), np.ones(len(points))] @ np.asarray(H).T
+    return np.ascontiguousarray(p[:, :2] / p[:, 2:3], dtype=np.float32)
+
+
+def rectifying_homographies(F, left, right, size):
+    """``(H1, H2)``: projective maps of the left and right image onto one frame where every
+    epipolar line of ``F`` is a row, as close to the images' own coordinates as possible.
+
+    ``cv2.stereoRectifyUncalibrated`` (on the correspondences ``left``, ``right``, ideally
+    inliers of F) gives one such pair; every map that keeps rows as rows may follow it: the
+    same ``y -> e y + f`` for both images, and for each image its own ``x -> a x + b y +
+    c``. They are fitted by least squares so that the rectified coordinates of ``left``
+    (and ``right``) stay closest to the given ones: the network's lengths then keep their
+    meaning in pixels. None when OpenCV finds no rectification."""
+    pl = np.asarray(left, np.float64).reshape(-1, 2)
+    pr = np.asarray(right, np.float64).reshape(-1, 2)
+    try:
+        ok, H1, H2 = cv2.stereoRectifyUncalibrated(pl, pr, F, (int(size[0]), int(size[1])))
+    except cv2.error:
+        return None
+    if not ok or H1 is None or H2 is None or not (np.isfinite(H1).all()
+                                                   and np.isfinite(H2).all()):
+        return None
+    ql = transform_points(pl, H1).astype(np.float64)
+    qr = transform_points(pr, H2).astype(np.float64)
+    ey, fy = np.linalg.lstsq(np.c_[ql[:, 1], np.ones(len(ql))], pl[:, 1], rcond=None)[0]
+    out = []
+    for q, p, H in ((ql, pl, H1), (qr, pr, H2)):
+        a, b, c = np.linalg.lstsq(np.c_[q, np.ones(len(q))], p[:, 0], rcond=None)[0]
+        out.append(np.array([[a, b, c], [0.0, ey, fy], [0.0, 0.0, 1.0]]) @ H)
+    return out[0], out[1]
+
+
+def row_alignment(geometry: EpipolarGeometry, iterations: int = 3) -> np.ndarray:
+    """The similarity ``S`` (3 x 3: rotation, scale, translation) with ``right = S @
+    aligned`` that best lines up the rows of the inliers: it maps each right inlier to the
+    row of its left partner, ``(S^-1 @ right)_y ~ left_y``, by least squares over the
+    inliers within ``max(1 px, 3 x the median residual)`` (``iterations`` rounds).
+
+    Only the rows are fitted: the x offsets of the matches hold the disparities, which a
+    full fit would fold into a false rotation or scale. The x translation of ``S^-1`` is
+    left at 0 (the disparities keep an unknown common offset)."""
+    left = geometry.left_points[geometry.inliers].astype(np.float64)
+    right = geometry.right_points[geometry.inliers].astype(np.float64)
+    X = np.c_[right, np.ones(len(right))]
+    keep = np.ones(len(X), bool)
+    for _ in range(iterations):
+        coef = np.linalg.lstsq(X[keep], left[keep, 1], rcond=None)[0]
+        res = np.abs(X @ coef - left[:, 1])
+        keep = res <= max(1.0, 3.0 * float(np.median(res)))
+    b, a, ty = coef
+    # aligned = [[a, -b, 0], [b, a, ty]] @ right: a similarity whose second row is the fit
+    to_aligned = np.array([[a, -b, 0.0], [b, a, ty], [0.0, 0.0, 1.0]])
+    return np.linalg.inv(to_aligned)

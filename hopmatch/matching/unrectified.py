@@ -1,0 +1,335 @@
+"""Matching an unrectified pair whose geometry nobody gave: ``match_stereo(...,
+rectified=False)``.
+
+1. Epipolar geometry from the pair (:func:`~hopmatch.matching.geometry.estimate_geometry`:
+   SIFT bootstrap, MAGSAC fundamental matrix, checks).
+2. The right image is brought into the left one's frame by the similarity (rotation,
+   scale, shift) that best aligns the rows of the bootstrap inliers
+   (:func:`~hopmatch.matching.geometry.row_alignment`), and the right points are detected
+   there. The network's lengths (the disparity ``d`` of eq. 6 and the length-invariance
+   ``ΔD`` of eq. 10) compare positions in the two images: they only mean what SPEC
+   section 2 says once rotation and scale between the images are gone, and the detector's
+   four Moravec directions (eq. 1) only find the same points when both images face the
+   same way.
+3. The sharper image is blurred to the other's sharpness (:func:`equalise_sharpness`):
+   the warp smooths the right image, and the similarity of eqs. 7-9 compares windows.
+4. The network searches rows (of the aligned pair, or of a rectification close to the
+   identity) or else the epipolar band of F (:func:`search_frame`), over the disparity
+   range a coarse pass finds there (:func:`network_range`). F is refitted on the final
+   matches (the F reported).
+
+Points are reported in the coordinates of the images given. The choices were measured on
+perturbed shared scenes and the chessboard photos (``benchmarks/unrectified.py``;
+docs/pipelines.md, "Which call for which pair").
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import cv2
+import numpy as np
+
+from .._validate import as_gray_image, as_mask, check_coordinate_range
+from .disparity_range import coarse_extent
+from .geometry import (
+    EpipolarGeometry,
+    estimate_geometry,
+    rectifying_homographies,
+    refit_fundamental,
+    row_alignment,
+    transform_points,
+)
+from .network import NetworkResult, PairInfo, match_pair, run_hopfield_network
+
+#: A range in the search frame: an extent widened on each side by this fraction of its
+#: span, plus 1 % of the width and 2 px ...
+RANGE_SPAN = 0.5
+#: ... and shifted so that it starts at this disparity: the network's disparity (eq. 6) is
+#: a length, so the aligned disparities must keep one sign.
+RANGE_START = 2.0
+#: Percentiles of the inliers' disparities taken as their extent (false inliers slide
+#: along the epipolar lines and would stretch it).
+RANGE_PERCENTILES = (1.0, 99.0)
+#: Interpolation of the right image's warp into the left frame.
+INTERPOLATION = cv2.INTER_LANCZOS4
+#: ``vertical_threshold`` of ``match_stereo(..., rectified=False)`` unless given: a match of
+#: an unrectified pair is right when its right point is within 1 px of the truth in both
+#: directions, and the aligned right image is resampled, so its rows are less certain
+#: than a rectified pair's (docs/pipelines.md, "Which call for which pair").
+UNRECTIFIED_VERTICAL = 0.75
+#: :func:`equalise_sharpness`: images whose sharpness differs by more than this fraction
+#: are equalised, by a Gaussian of sigma at most SHARPNESS_MAX_SIGMA found in
+#: SHARPNESS_STEPS bisection steps, measured on at most SHARPNESS_PIXELS pixels.
+SHARPNESS_TOLERANCE = 0.1
+SHARPNESS_MAX_SIGMA = 2.0
+SHARPNESS_STEPS = 7
+SHARPNESS_PIXELS = 1_000_000
+#: Passes of the network: after each but the last, F is refitted on its matches and the
+#: search frame rebuilt from it.
+PASSES = 1
+#: Refit F on the final matches (the F reported; the matches are those of the last pass).
+REFITS = True
+#: How the network searches the aligned pair (:func:`search_frame`, in SEARCH_ORDER): the
+#: aligned rows when they line up the inliers nearly as well as F does (median |dy| within
+#: ROW_FACTOR x F's median epipolar error, or ROW_PIXELS: a near-degenerate F, from a scene
+#: close to one plane, fits its inliers worse than the rows do), else the rows of a
+#: projective rectification of both point sets
+#: (:func:`~hopmatch.matching.geometry.rectifying_homographies`), unless it moves a point
+#: of the image by more than RECTIFY_LIMIT of its diagonal (:func:`near_identity`; a
+#: near-degenerate F gives wild rectifications): then the epipolar band of F (slower: the
+#: candidate search cannot index rows).
+ROW_FACTOR = 1.5
+ROW_PIXELS = 0.25
+RECTIFY_LIMIT = 0.1
+SEARCH_ORDER = ("aligned", "rectified", "epipolar")
+
+
+def shift_x(shift: float) -> np.ndarray:
+    """The 3 x 3 map ``x -> x + shift``."""
+    return np.array([[1.0, 0.0, shift], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+def inlier_range(left, right, width: float):
+    """``(lo, hi, shift)``: the disparity range ``xl - xr`` of inlier correspondences
+    (:data:`RANGE_PERCENTILES`, widened by :data:`RANGE_SPAN`) after moving the right
+    points by ``shift`` in x, the shift that makes it start at :data:`RANGE_START`."""
+    d = np.asarray(left, np.float64)[:, 0] - np.asarray(right, np.float64)[:, 0]
+    lo, hi = np.percentile(d, RANGE_PERCENTILES)
+    pad = RANGE_SPAN * (hi - lo) + 0.01 * width + 2.0
+    lo, hi = lo - pad, hi + pad
+    shift = lo - RANGE_START  # xr + shift - ... : d - (lo - start) starts at start
+    return RANGE_START, hi - shift, shift
+
+
+def aligned_frame(geometry: EpipolarGeometry, width: float):
+    """``(to_aligned, (lo, hi))``: the 3 x 3 map from the right image to the left image's
+    frame (:func:`~hopmatch.matching.geometry.row_alignment`, then the x shift that makes
+    the inliers' disparity range start at :data:`RANGE_START`) and that range."""
+    S = row_alignment(geometry)
+    inl_r = transform_points(geometry.right_points[geometry.inliers], np.linalg.inv(S))
+    lo, hi, shift = inlier_range(geometry.left_points[geometry.inliers], inl_r, width)
+    return shift_x(shift) @ np.linalg.inv(S), (lo, hi)
+
+
+def warp_right(right_gray, mask_right, to_aligned, size, margin: int):
+    """``(warped, valid)``: the right image in the left frame (:data:`INTERPOLATION`,
+    replicated borders) and where it holds right pixels (and ``mask_right``) at least
+    ``margin`` pixels inside (bool), so that no point is detected on the warp's edge."""
+    w, h = int(size[0]), int(size[1])
+    warped = cv2.warpAffine(right_gray, to_aligned[:2], (w, h), flags=INTERPOLATION,
+                            borderMode=cv2.BORDER_REPLICATE)
+    valid = np.full(right_gray.shape, 255, np.uint8)
+    if mask_right is not None:
+        valid[~mask_right] = 0
+    valid = cv2.warpAffine(valid, to_aligned[:2], (w, h), flags=cv2.INTER_NEAREST,
+                           borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    valid = cv2.erode(valid, np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)) > 0
+    return warped, valid
+
+
+def sharpness(image: np.ndarray, where: np.ndarray) -> float:
+    """The share of ``image``'s variance (over ``where``) above the pass band of a Gaussian
+    of sigma 1: ``var(I - G_1 * I) / var(I)``. Resampling lowers it."""
+    f = image.astype(np.float32)
+    high = f - cv2.GaussianBlur(f, (0, 0), 1.0)
+    var = float(np.var(f[where]))
+    return float(np.mean(high[where] ** 2)) / var if var > 0 else 0.0
+
+
+def blur_to(image: np.ndarray, target: float, where: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(image blurred by a Gaussian, sigma)``: the sigma in ``[0, SHARPNESS_MAX_SIGMA]``
+    (bisection, :data:`SHARPNESS_STEPS` steps) whose :func:`sharpness` is ``target``."""
+    f = image.astype(np.float32)
+    lo, hi = 0.0, SHARPNESS_MAX_SIGMA
+    for _ in range(SHARPNESS_STEPS):
+        mid = 0.5 * (lo + hi)
+        if sharpness(cv2.GaussianBlur(f, (0, 0), mid), where) > target:
+            lo = mid
+        else:
+            hi = mid
+    sigma = 0.5 * (lo + hi)
+    return cv2.GaussianBlur(f, (0, 0), sigma), sigma
+
+
+def equalise_sharpness(left_gray, warped, valid):
+    """``(left, warped, (sigma_left, sigma_right))``: the sharper of the two images blurred
+    until its :func:`sharpness` matches the other's, when they differ by more than
+    :data:`SHARPNESS_TOLERANCE`. The network compares windows of the two images (eqs.
+    7-9): an image resampled into the other's frame is smoother, and its windows then
+    differ from the other image's even where they show the same thing. Measured on the
+    valid part of the aligned right image, within a centre crop of at most
+    :data:`SHARPNESS_PIXELS` pixels."""
+    ys, xs = np.nonzero(valid)
+    if len(xs) < 1024:
+        return left_gray, warped, (0.0, 0.0)
+    cy, cx = int(np.median(ys)), int(np.median(xs))
+    half = int(np.sqrt(SHARPNESS_PIXELS)) // 2
+    win = (slice(max(0, cy - half), cy + half), slice(max(0, cx - half), cx + half))
+    where = valid[win]
+    s_l = sharpness(left_gray[win], where)
+    s_r = sharpness(warped[win], where)
+    if abs(s_l - s_r) <= SHARPNESS_TOLERANCE * max(s_l, s_r):
+        return left_gray, warped, (0.0, 0.0)
+    if s_l > s_r:
+        _, sigma = blur_to(left_gray[win], s_r, where)
+        return cv2.GaussianBlur(left_gray.astype(np.float32), (0, 0), sigma), warped, (
+            sigma, 0.0)
+    _, sigma = blur_to(warped[win], s_l, where)
+    return left_gray, cv2.GaussianBlur(warped.astype(np.float32), (0, 0), sigma), (0.0, sigma)
+
+
+def near_identity(maps, size) -> bool:
+    """Whether each 3 x 3 map moves every point of a 9 x 9 grid over the image by at most
+    :data:`RECTIFY_LIMIT` of its diagonal (and keeps it in front: positive w)."""
+    w, h = size
+    gx, gy = np.meshgrid(np.linspace(0, w - 1, 9), np.linspace(0, h - 1, 9))
+    grid = np.c_[gx.ravel(), gy.ravel(), np.ones(gx.size)]
+    for H in maps:
+        p = grid @ np.asarray(H).T
+        if not (p[:, 2] > 0).all():
+            return False
+        moved = np.hypot(p[:, 0] / p[:, 2] - grid[:, 0], p[:, 1] / p[:, 2] - grid[:, 1])
+        if not moved.max() <= RECTIFY_LIMIT * float(np.hypot(w, h)):
+            return False
+    return True
+
+
+def search_frame(geometry, to_aligned, size):
+    """``(H1, H2, (lo, hi), mode)``: where the network searches (see :data:`SEARCH_ORDER`).
+
+    ``H1`` maps left points and ``H2`` aligned right points into the search frame (``H1``
+    None in ``'epipolar'`` mode, where the band of the aligned F is searched), ``(lo,
+    hi)`` the inliers' disparity range there (starting at :data:`RANGE_START`), ``mode``
+    one of ``'rectified'``, ``'aligned'``, ``'epipolar'``."""
+    il = geometry.left_points[geometry.inliers]
+    ia = transform_points(geometry.right_points[geometry.inliers], to_aligned)
+    for mode in SEARCH_ORDER:
+        if mode == "rectified":
+            to_right = np.linalg.inv(to_aligned)
+            F = to_right.T @ geometry.fundamental
+            H = rectifying_homographies(F / np.linalg.norm(F), il, ia, size)
+            if H is None:
+                continue
+            H1, H2 = H
+            if not near_identity((H1, H2), size):
+                continue
+            rl, ra = transform_points(il, H1), transform_points(ia, H2)
+        elif mode == "aligned":
+            row_error = float(np.median(np.abs(il[:, 1].astype(np.float64) - ia[:, 1])))
+            if row_error > max(ROW_FACTOR * geometry.median_error, ROW_PIXELS):
+                continue
+            H1, H2, rl, ra = np.eye(3), np.eye(3), il, ia
+        else:
+            H1, H2, rl, ra = None, np.eye(3), il, ia
+        lo, hi, shift = inlier_range(rl, ra, size[0])
+        return H1, shift_x(shift) @ H2, (lo, hi), mode
+    raise AssertionError("SEARCH_ORDER must end with 'epipolar'")  # pragma: no cover
+
+
+def network_range(config, q_l, q_r, desc_l, desc_r, width, fundamental, inlier_hi):
+    """``(lo, hi, shift)``: the disparity range in the search frame measured by the coarse
+    pass of the network (:func:`~hopmatch.matching.disparity_range.coarse_extent`, as for a
+    rectified pair with ``max_disparity=None``), widened by :data:`RANGE_SPAN`, and the x
+    shift of the right points that makes it start at :data:`RANGE_START`.
+
+    The inliers' range is ``[RANGE_START, inlier_hi]`` in the search frame; the coarse pass
+    searches half the width around its middle, shifted to positive disparities (the
+    network's disparity is a length). When it keeps too few matches, the full pass searches
+    that window."""
+    c = 0.5 * (RANGE_START + inlier_hi) - 0.25 * width   # coarse d = d - c
+    F = None if fundamental is None else shift_x(-c).T @ fundamental
+    found = coarse_extent(config, q_l, transform_points(q_r, shift_x(c)), desc_l, desc_r,
+                          0.0, 0.5 * width, width, run_hopfield_network, fundamental=F)
+    if found is None:
+        return RANGE_START, RANGE_START + 0.5 * width, c - RANGE_START
+    lo, hi = found[0] + c, found[1] + c
+    pad = RANGE_SPAN * (hi - lo) + 0.01 * width + 2.0
+    shift = lo - pad - RANGE_START
+    return RANGE_START, hi + pad - shift, shift
+
+
+def match_unrectified(left, right, detector, config, *, mask_left=None, mask_right=None,
+                      record_energy=False):
+    """The pipeline of this module's docstring.
+
+    Returns ``(pts_l, resp_l, pts_r, resp_r, network, geometry, timings)``: points in the
+    given images' coordinates, the :class:`~hopmatch.matching.network.NetworkResult` (or
+    None when no geometry was accepted: ``geometry.reason`` says why), the
+    :class:`~hopmatch.matching.geometry.EpipolarGeometry` used and the seconds spent in
+    ``geometry``, ``align``, ``detect_left``, ``detect_right`` and ``match``.
+    """
+    t0 = time.perf_counter()
+    limit = detector.getMaxPixels()
+    left_gray = as_gray_image(left, "left", max_pixels=limit)
+    right_gray = as_gray_image(right, "right", max_pixels=limit)
+    m_l = as_mask(mask_left, left_gray.shape, "mask_left")
+    m_r = as_mask(mask_right, right_gray.shape, "mask_right")
+    size = left_gray.shape[::-1]
+    geometry = estimate_geometry(left_gray, right_gray)
+    t1 = time.perf_counter()
+    timings = {"geometry": t1 - t0}
+    if geometry.fundamental is None:
+        pts_l, resp_l, _, _ = detector.detect_and_describe(left_gray, m_l, name="left")
+        timings["detect_left"] = time.perf_counter() - t1
+        empty = np.zeros((0, 2), np.float32)
+        return pts_l, resp_l, empty, np.zeros(0, np.float32), None, geometry, timings
+    to_aligned, _ = aligned_frame(geometry, size[0])
+    margin = detector.getDescriptorSize() // 2 + detector.getWindowSize() // 2 + 2
+    warped, valid = warp_right(right_gray, m_r, to_aligned, size, margin)
+    left_img, warped, _ = equalise_sharpness(left_gray, warped, valid)
+    t2 = time.perf_counter()
+    pts_l, resp_l, desc_l, _ = detector.detect_and_describe(left_img, m_l, name="left")
+    t3 = time.perf_counter()
+    pts_a, resp_r, desc_r, _ = detector.detect_and_describe(warped, valid, name="right")
+    t4 = time.perf_counter()
+    pts_r = transform_points(pts_a, np.linalg.inv(to_aligned))
+    for round_ in range(PASSES):
+        net, mode = search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config,
+                           record_energy)
+        if round_ + 1 < PASSES or REFITS:
+            refit = refit_fundamental(geometry, pts_l[net.query_idx], pts_r[net.train_idx])
+            if refit is geometry:
+                break
+            geometry = refit
+    timings.update(align=t2 - t1, detect_left=t3 - t2, detect_right=t4 - t3,
+                   match=time.perf_counter() - t4)
+    geometry = dataclasses.replace(geometry, search=mode)
+    return pts_l, resp_l, pts_r, resp_r, net, geometry, timings
+
+
+def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, record_energy):
+    """``(network result, mode)``: the network on the left points and the aligned right
+    points ``pts_a``, in the frame of :func:`search_frame`, over the range of
+    :func:`network_range` (or of the inliers)."""
+    H1, H2, (lo, hi), mode = search_frame(geometry, to_aligned, size)
+    if H1 is None:  # the epipolar band of F, in the aligned frame shifted by H2
+        F = np.linalg.inv(H2).T @ np.linalg.inv(to_aligned).T @ geometry.fundamental
+        fundamental = np.ascontiguousarray(F / np.linalg.norm(F))
+        q_l, q_r = pts_l, transform_points(pts_a, H2)
+    else:
+        fundamental = None
+        q_l, q_r = transform_points(pts_l, H1), transform_points(pts_a, H2)
+    check_coordinate_range(q_l, "left")
+    check_coordinate_range(q_r, "right")
+    lo, hi, shift = network_range(config, q_l, q_r, desc_l, desc_r, size[0], fundamental, hi)
+    q_r = transform_points(q_r, shift_x(shift))
+    if fundamental is not None:
+        fundamental = shift_x(-shift).T @ fundamental
+    cfg = config
+    if config.max_disparity is None:
+        cfg = dataclasses.replace(config, min_disparity=lo, max_disparity=hi)
+    net = match_pair(PairInfo(q_l, q_r, size, size), desc_l, desc_r, cfg,
+                     fundamental=fundamental, record_energy=record_energy,
+                     descriptors_checked=True)
+    return net, mode
+
+
+def empty_network_result(config) -> NetworkResult:
+    """A :class:`~hopmatch.matching.network.NetworkResult` with no neuron (and ``config``)."""
+    i32, f64 = np.zeros(0, np.int32), np.zeros(0, np.float64)
+    return NetworkResult(query_idx=i32, train_idx=i32, distances=np.zeros(0, np.float32),
+                         neuron_left=i32, neuron_right=i32, state=np.zeros(0, bool),
+                         fields=f64, similarity=f64, n_interactions=0, iterations=0,
+                         sweeps=0, converged=True, energy=0.0, config=config)

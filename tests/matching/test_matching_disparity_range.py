@@ -1,0 +1,117 @@
+"""hopmatch.matching.disparity_range: max_disparity=None finds the range itself."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+import hopmatch
+from hopmatch.errors import BudgetExceededError, DisparityRangeWarning
+from hopmatch.matching import disparity_range as dr
+from hopmatch.matching.candidates import candidate_pairs
+
+
+def textured(shape=(200, 260), seed=0):
+    rng = np.random.default_rng(seed)
+    img = cv2.GaussianBlur(rng.random(shape).astype(np.float32), (0, 0), 1.5)
+    return cv2.normalize(img, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
+
+
+def test_thin_points_keeps_one_point_per_cell():
+    pts = np.random.default_rng(0).uniform(0, 100, (5000, 2)).astype(np.float32)
+    keep = dr.thin_points(pts, 100)
+    assert 60 <= len(keep) <= 130 and (np.diff(keep) > 0).all()
+    assert len(dr.thin_points(pts[:50], 100)) == 50
+
+
+def test_trimmed_extent_drops_isolated_extremes_only():
+    v = np.r_[np.linspace(10, 50, 200), 300.0]
+    assert dr.trimmed_extent(v, 20.0) == (10.0, 50.0)
+    assert dr.trimmed_extent(np.r_[v, 301, 302, 303, 304, 305], 20.0)[1] == 305.0
+
+
+def test_widen_moves_both_bounds_outwards():
+    lo, hi = dr.widen(20.0, 60.0, 400.0)
+    assert lo < 20.0 / dr.RANGE_FACTOR and hi > 60.0 * dr.RANGE_FACTOR
+    lo, hi = dr.widen(-10.0, 5.0, 400.0)
+    assert lo < -10.0 * dr.RANGE_FACTOR and hi > 5.0
+
+
+def test_the_range_found_covers_a_uniform_shift_and_is_recorded():
+    left = textured()
+    right = np.roll(left, -9, axis=1)
+    res = hopmatch.match_stereo(left, right)
+    c = res.network.config
+    assert c.min_disparity <= 9 <= c.max_disparity < 0.25 * left.shape[1]
+    assert np.median(res.disparities) == pytest.approx(9.0, abs=0.5)
+
+
+def test_min_disparity_none_lets_the_range_go_negative():
+    left = textured(seed=1)
+    right = np.roll(left, 7, axis=1)  # disparity -7 everywhere
+    with pytest.warns(DisparityRangeWarning):  # floor 0: nothing to find
+        assert len(hopmatch.match_stereo(left, right).query_idx) < 20
+    res = hopmatch.match_stereo(left, right, min_disparity=None)
+    assert res.network.config.min_disparity < -7 < res.network.config.max_disparity
+    assert len(res.query_idx) > 100
+    assert np.median(res.disparities) == pytest.approx(-7.0, abs=0.5)
+
+
+def test_a_given_max_disparity_is_used_as_given():
+    left = textured(seed=2)
+    res = hopmatch.match_stereo(left, np.roll(left, -5, axis=1), max_disparity=12)
+    assert (res.network.config.min_disparity, res.network.config.max_disparity) == (0.0, 12.0)
+    res = hopmatch.match_stereo(left, np.roll(left, -5, axis=1), max_disparity=12,
+                                min_disparity=None)
+    assert res.network.config.min_disparity == 0.0
+
+
+def test_nothing_to_find_warns_that_the_fallback_range_was_searched():
+    rng = np.random.default_rng(4)
+    left = (rng.random((120, 160)) * 255).astype(np.uint8)
+    right = (rng.random((120, 160)) * 255).astype(np.uint8)
+    with pytest.warns(DisparityRangeWarning, match="coarse pass"):
+        res = hopmatch.match_stereo(left, right, similarity_gate=0.0)
+    assert len(res.query_idx) == 0
+    assert res.network.config.max_disparity == pytest.approx(0.25 * 160)
+
+
+def test_a_found_range_over_budget_retries_on_the_coarse_matches_own_range():
+    left = textured((480, 640), seed=5)
+    right = np.roll(left, -10, axis=1)
+    det = hopmatch.DericheMoravecDetector()
+    pl, _, dl, _ = det.detect_and_describe(left)
+    pr, _, drr, _ = det.detect_and_describe(right)
+    free = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480))
+    count = lambda pts, lo, hi: len(candidate_pairs(pts, pr, lo, hi, 1.0, 10**9)[0])  # noqa: E731
+    wide = count(pl, free.config.min_disparity, free.config.max_disparity)
+    narrow = count(pl, 10.0 - 2 * dr.RANGE_PIXELS, 10.0 + 2 * dr.RANGE_PIXELS)
+    coarse = count(pl[dr.thin_points(pl, dr.COARSE_POINTS)], 0.0, 160.0)
+    budget = max(narrow, coarse) + (wide - max(narrow, coarse)) // 2
+    assert max(narrow, coarse) < budget < wide
+    with pytest.warns(DisparityRangeWarning, match="exceeds a budget"):
+        res = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480),
+                                      max_neurons=budget)
+    assert res.config.max_disparity < free.config.max_disparity and len(res.query_idx) > 50
+    with pytest.raises(BudgetExceededError):
+        hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480), max_neurons=10)
+
+
+def test_the_range_covers_the_true_range_on_every_shared_scene(shared_data):
+    """The 0.5th..99.5th percentiles of the ground truth lie in the range found, and at
+    least 99 % of its pixels (a few pixels reach further on aloe and KITTI, where no
+    keypoint matches either way)."""
+    from hopmatch import datasets
+    det = hopmatch.DericheMoravecDetector()
+    for name in datasets.list_scenes(shared_data):
+        s = datasets.load(name, root=shared_data)
+        kl, dl = det.detectAndCompute(s.left, None)
+        kr, drr = det.detectAndCompute(s.right, None)
+        m = hopmatch.HopfieldMatcher()
+        m.setPairInfo(kl, kr, s.image_size, s.image_size)
+        c = m.run(dl, drr).config
+        v = s.disparity[np.isfinite(s.disparity)]
+        lo, hi = np.percentile(v, [0.5, 99.5])
+        assert c.min_disparity <= lo and hi <= c.max_disparity, name
+        assert np.mean((v >= c.min_disparity) & (v <= c.max_disparity)) >= 0.99, name

@@ -1,0 +1,189 @@
+"""hopmatch.matching.geometry: F from the pair itself, and refusing an F it does not support."""
+
+from __future__ import annotations
+
+import warnings
+
+import cv2
+import numpy as np
+import pytest
+from unrect_scene import SIZE, plane_correspondences, render_pair
+
+import hopmatch
+from hopmatch.errors import HopmatchWarning, PairInfoError
+from hopmatch.matching.geometry import (
+    GeometryWarning,
+    chance_inliers,
+    estimate_geometry,
+    rectifying_homographies,
+    robust_fundamental,
+    row_alignment,
+    symmetric_epipolar_error,
+    transform_points,
+)
+
+RECTIFIED_F = np.array([[0, 0, 0], [0, 0, -1], [0, 1, 0.0]])
+
+
+@pytest.fixture(scope="module")
+def pair():
+    return render_pair()
+
+
+def test_the_synthetic_rig_is_consistent():
+    left, right = plane_correspondences()
+    assert len(left) > 200
+    from unrect_scene import fundamental
+    assert symmetric_epipolar_error(fundamental(), left, right).max() < 1e-6
+
+
+def test_geometry_recovered_on_a_synthetic_pair_from_a_known_f(pair):
+    left, right, F = pair
+    g = estimate_geometry(left, right)
+    assert g.fundamental is not None and g.reason is None
+    assert g.n_inliers >= 100 and g.inlier_ratio > 0.5
+    true_l, true_r = plane_correspondences()
+    err = symmetric_epipolar_error(g.fundamental, true_l, true_r)
+    assert err.mean() < 0.5 and np.percentile(err, 95) < 0.5
+
+
+def box_pair(rng):
+    """A rectified pair of a plane at disparity 6 and a nearer box at 14: the right image
+    is ``right(x, y) = left(x + d(x, y), y)``, ``d`` given on the right image's grid."""
+    from unrect_scene import texture
+    left = texture(rng, 420)[:300, :400]
+    d = np.full(left.shape, 6.0, np.float32)
+    d[80:220, 120:280] = 14.0
+    ys, xs = np.mgrid[0:300, 0:400].astype(np.float32)
+    return left, cv2.remap(left, xs + d, ys, cv2.INTER_LINEAR), d
+
+
+@pytest.mark.parametrize("angle, dy, scale", [(5.0, 30.0, 1.03), (-3.0, -12.0, 0.97)])
+def test_geometry_recovered_on_a_perturbed_rectified_pair(angle, dy, scale):
+    from unrect_scene import perturbation
+    rng = np.random.default_rng(3)
+    left, right, d = box_pair(rng)
+    A = perturbation((400, 300), angle, dy, scale)
+    g = estimate_geometry(left, cv2.warpAffine(right, A, (400, 300), flags=cv2.INTER_LINEAR))
+    assert g.fundamental is not None
+    x, y = rng.uniform(40, 360, 500), rng.uniform(40, 260, 500)
+    disp = d[y.astype(int), x.astype(int)]
+    true_l = np.c_[x + disp, y]
+    true_r = np.c_[x, y, np.ones(len(x))] @ A.T
+    err = symmetric_epipolar_error(g.fundamental, true_l, true_r)
+    assert np.median(err) < 0.5 and err.mean() < 0.5
+
+
+def test_row_alignment_recovers_a_similarity():
+    rng = np.random.default_rng(0)
+    left = rng.uniform(0, 400, (300, 2))
+    d = rng.uniform(5, 40, 300)
+    A = cv2.getRotationMatrix2D((200, 150), 4.0, 1.02)
+    A[1, 2] += 17
+    right = np.c_[left[:, 0] - d, left[:, 1], np.ones(300)] @ A.T
+    from hopmatch.matching.geometry import EpipolarGeometry
+    g = EpipolarGeometry(np.eye(3), left.astype(np.float32), right.astype(np.float32),
+                         np.ones(300, bool), 0.0, "test")
+    S = row_alignment(g)
+    aligned = transform_points(right, np.linalg.inv(S))
+    np.testing.assert_allclose(aligned[:, 1], left[:, 1], atol=1e-3)
+
+
+def test_rectifying_homographies_stay_near_the_identity_on_a_rectified_pair():
+    rng = np.random.default_rng(1)
+    left = rng.uniform(0, 400, (200, 2))
+    right = left - np.c_[rng.uniform(5, 30, 200), np.zeros(200)]
+    H1, H2 = rectifying_homographies(RECTIFIED_F, left, right, (400, 300))
+    for H, pts in ((H1, left), (H2, right)):
+        moved = np.hypot(*(transform_points(pts, H) - pts).T)
+        assert moved.max() < 1.0
+
+
+def test_shuffled_correspondences_are_refused():
+    left, right = plane_correspondences()
+    perm = np.random.default_rng(0).permutation(len(right))
+    g = robust_fundamental(left, right[perm])
+    assert g.fundamental is None
+    assert "agree on a fundamental matrix" in g.reason
+    assert chance_inliers(left, right, 1.0) < 0.5 * len(left)
+
+
+def test_too_few_correspondences_are_refused():
+    g = robust_fundamental(np.zeros((5, 2)), np.zeros((5, 2)))
+    assert g.fundamental is None and "only 5 bootstrap correspondences" in g.reason
+
+
+def _warned_empty(left, right):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = hopmatch.match_stereo(left, right, rectified=False)
+    kinds = [w.category for w in caught]
+    assert GeometryWarning in kinds and issubclass(GeometryWarning, HopmatchWarning)
+    assert len(res.query_idx) == 0 and len(res.matches) == 0
+    assert res.fundamental_matrix is None and res.geometry.reason
+    return res, next(w for w in caught if w.category is GeometryWarning)
+
+
+def test_a_pair_without_texture_gives_an_empty_result_and_says_why():
+    flat = np.full((240, 320), 128, np.uint8)
+    _, w = _warned_empty(flat, flat)
+    assert "no epipolar geometry" in str(w.message) and w.filename == __file__
+
+
+def test_two_unrelated_images_give_an_empty_result_and_say_why():
+    from unrect_scene import texture
+    rng = np.random.default_rng(7)
+    a, b = texture(rng, 360)[:240, :320], texture(rng, 360)[:240, :320]
+    _, w = _warned_empty(a, b)
+    assert "show the same scene" in str(w.message)
+
+
+def test_the_matcher_refuses_the_f_of_two_unrelated_images():
+    """The descriptor bootstrap finds many correspondences there (the best look-alike of
+    each point), which a fundamental matrix fits no better than shuffled ones."""
+    from unrect_scene import texture
+    rng = np.random.default_rng(8)
+    det = hopmatch.DericheMoravecDetector.create()
+    kl, dl = det.detectAndCompute(texture(rng, 360)[:240, :320], None)
+    kr, dr = det.detectAndCompute(texture(rng, 360)[:240, :320], None)
+    m = hopmatch.HopfieldMatcher.create()
+    m.setPairInfo(kl, kr, (320, 240), (320, 240))
+    with pytest.warns(GeometryWarning, match="show the same scene"):
+        g = m.estimateFundamentalMatrix(dl, dr)
+    assert g.fundamental is None and g.n_correspondences >= 30
+    assert m.getFundamentalMatrix() is None
+
+
+def test_matcher_estimates_and_sets_f(pair):
+    left, right, F = pair
+    det = hopmatch.DericheMoravecDetector.create()
+    kl, dl = det.detectAndCompute(left, None)
+    kr, dr = det.detectAndCompute(right, None)
+    m = hopmatch.HopfieldMatcher.create()
+    with pytest.raises(PairInfoError, match="setPairInfo"):
+        m.estimateFundamentalMatrix(dl, dr)
+    m.setPairInfo(kl, kr, SIZE, SIZE)
+    g = m.estimateFundamentalMatrix(dl, dr)
+    assert g.fundamental is not None and g.source == "descriptors"
+    np.testing.assert_array_equal(m.getFundamentalMatrix(), g.fundamental)
+    true_l, true_r = plane_correspondences()
+    assert np.median(symmetric_epipolar_error(g.fundamental, true_l, true_r)) < 0.5
+    matches = m.match(dl, dr)
+    pl = cv2.KeyPoint_convert(kl)[[x.queryIdx for x in matches]]
+    pr = cv2.KeyPoint_convert(kr)[[x.trainIdx for x in matches]]
+    assert len(matches) > 200
+    assert np.mean(symmetric_epipolar_error(F, pl, pr) <= 1.0) > 0.95
+
+
+def test_matcher_without_geometry_warns_and_keeps_its_f():
+    flat = np.full((120, 160), 90, np.float32)
+    m = hopmatch.HopfieldMatcher.create()
+    pts = np.array([[20.0, 20.0], [60, 40]], np.float32)
+    m.setPairInfo(pts, pts, (160, 120), (160, 120))
+    m.setFundamentalMatrix(RECTIFIED_F)
+    desc = np.zeros((2, 81), np.float32)
+    with pytest.warns(GeometryWarning, match="unchanged"):
+        g = m.estimateFundamentalMatrix(desc, desc)
+    assert g.fundamental is None
+    np.testing.assert_array_equal(m.getFundamentalMatrix(), RECTIFIED_F / 1.0)
+    assert flat.size  # the image itself is never needed

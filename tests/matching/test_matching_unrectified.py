@@ -1,0 +1,123 @@
+"""match_stereo(left, right, rectified=False): hopmatch.matching.unrectified."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from unrect_scene import SIZE, perturbation, perturbed_truth, render_pair, texture
+
+import hopmatch
+from hopmatch.errors import InvalidArgumentError, InvalidTypeError
+from hopmatch.matching import unrectified as u
+from hopmatch.matching.geometry import symmetric_epipolar_error
+
+
+@pytest.fixture(scope="module")
+def verged():
+    left, right, F = render_pair()
+    return left, right, F, hopmatch.match_stereo(left, right, rectified=False)
+
+
+def test_a_verged_pair_is_matched_along_its_true_epipolar_lines(verged):
+    left, right, F, res = verged
+    assert len(res.query_idx) > 1000
+    err = symmetric_epipolar_error(F, res.matched_left, res.matched_right)
+    assert np.mean(err <= 1.0) > 0.97
+    assert res.geometry.search in ("aligned", "rectified", "epipolar")
+    assert res.geometry.n_inliers > 500 and res.geometry.inlier_ratio > 0.8
+    np.testing.assert_allclose(res.fundamental_matrix, res.geometry.fundamental)
+    assert np.median(symmetric_epipolar_error(res.fundamental_matrix, res.matched_left,
+                                              res.matched_right)) < 0.5
+    assert set(res.timings) >= {"geometry", "detect_left", "detect_right", "match"}
+
+
+def test_points_are_reported_in_the_given_images(verged):
+    left, right, _, res = verged
+    w, h = SIZE
+    for pts in (res.points_left, res.points_right):
+        assert pts.dtype == np.float32 and (pts >= 0).all()
+        assert (pts[:, 0] <= w - 1).all() and (pts[:, 1] <= h - 1).all()
+    assert len(res.keypoints_right) == len(res.points_right)
+    assert all(m.trainIdx < len(res.points_right) for m in res.matches)
+
+
+def perturbed_box_pair(angle, dy, scale, seed=3):
+    rng = np.random.default_rng(seed)
+    left = texture(rng, 520)[:360, :480]
+    d = np.full(left.shape, 8.0, np.float32)
+    d[100:260, 150:330] = 20.0
+    # a rectified pair with ground truth on the left image: right(x) = left(x + d(x))
+    # holds at x = xl - d, so build the left disparity map by forward warping
+    ys, xs = np.mgrid[0:360, 0:480].astype(np.float32)
+    right = cv2.remap(left, xs + d, ys, cv2.INTER_LINEAR)
+    gt = np.full(left.shape, np.nan, np.float32)
+    xl = np.round(xs + d).astype(int)
+    ok = xl < 480
+    gt[ys[ok].astype(int), xl[ok]] = d[ok]
+    A = perturbation((480, 360), angle, dy, scale)
+    return left, right, cv2.warpAffine(right, A, (480, 360), flags=cv2.INTER_LINEAR), gt, A
+
+
+@pytest.mark.parametrize("angle, dy, scale", [(5.0, 30.0, 1.03), (-2.0, -8.0, 0.98)])
+def test_a_perturbed_rectified_pair_keeps_most_of_its_matches(angle, dy, scale):
+    left, right, warped, gt, A = perturbed_box_pair(angle, dy, scale)
+    ref = hopmatch.match_stereo(left, right, max_disparity=24)
+    t, known = perturbed_truth(ref.matched_left, gt, np.eye(3)[:2])
+    ref_correct = int((known & (np.hypot(*(ref.matched_right - t).T) <= 1)).sum())
+    res = hopmatch.match_stereo(left, warped, rectified=False)
+    t, known = perturbed_truth(res.matched_left, gt, A)
+    correct = known & (np.hypot(*(res.matched_right - t).T) <= 1)
+    assert correct.sum() / known.sum() >= 0.97
+    assert correct.sum() >= 0.75 * ref_correct
+    assert res.geometry.search == "aligned"
+
+
+def test_a_perturbed_middlebury_pair(shared_data):
+    from hopmatch import datasets
+    s = datasets.load("middlebury/art", root=shared_data)
+    A = perturbation(s.image_size, 5.0, 30.0, 1.03)
+    res = hopmatch.match_stereo(s.left, cv2.warpAffine(s.right, A, s.image_size),
+                                rectified=False)
+    t, known = perturbed_truth(res.matched_left, s.disparity, A)
+    correct = known & (np.hypot(*(res.matched_right - t).T) <= 1)
+    assert correct.sum() / known.sum() >= 0.96
+    assert correct.sum() >= 1500  # the rectified pair with its range: 1979
+
+
+def test_argument_errors():
+    img = texture(np.random.default_rng(0), 100)
+    with pytest.raises(InvalidArgumentError, match="fundamental_matrix"):
+        hopmatch.match_stereo(img, img, rectified=False, fundamental_matrix=np.eye(3))
+    with pytest.raises(InvalidArgumentError, match="max_disparity"):
+        hopmatch.match_stereo(img, img, rectified=False, max_disparity=20)
+    with pytest.raises(InvalidTypeError, match="rectified"):
+        hopmatch.match_stereo(img, img, rectified="no")
+
+
+def test_vertical_threshold_default_and_given(verged):
+    left, right, _, res = verged
+    assert res.network.config.vertical_threshold == u.UNRECTIFIED_VERTICAL
+    given = hopmatch.match_stereo(left, right, rectified=False, vertical_threshold=1.0)
+    assert given.network.config.vertical_threshold == 1.0
+
+
+def test_mask_right_is_honoured(verged):
+    left, right, _, _ = verged
+    mask = np.zeros(right.shape, np.uint8)
+    mask[:, : SIZE[0] // 2] = 255
+    res = hopmatch.match_stereo(left, right, rectified=False, mask_right=mask)
+    assert len(res.points_right) and (res.points_right[:, 0] < SIZE[0] // 2 + 1).all()
+
+
+def test_sharpness_is_equalised_by_blurring_the_sharper_image():
+    img = texture(np.random.default_rng(2), 300).astype(np.float32)
+    soft = cv2.GaussianBlur(img, (0, 0), 0.8)
+    where = np.ones(img.shape, bool)
+    assert u.sharpness(soft, where) < u.sharpness(img, where)
+    blurred, sigma = u.blur_to(img, u.sharpness(soft, where), where)
+    assert sigma == pytest.approx(0.8, abs=0.1)
+    left, right, (s_l, s_r) = u.equalise_sharpness(img, soft, where)
+    assert s_l > 0 and s_r == 0 and right is soft
+    left, right, sigmas = u.equalise_sharpness(img, img.copy(), where)
+    assert sigmas == (0.0, 0.0) and left is img
