@@ -145,18 +145,18 @@ def warn_geometry(query_size, train_size, fundamental, config) -> None:
              DisparityRangeWarning)
 
 
-def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config) -> None:
+def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config) -> bool:
     """Warn (:class:`~hopmatch.errors.UnrectifiedPairWarning`) when the network kept few
     matches (below :data:`RECTIFICATION_SUSPICIOUS` of the keypoints) and the clearest
     look-alikes of the left points lie off their rows (:func:`rectification_evidence`), or
     (:class:`NotStereoPairWarning`) when almost no left point has a look-alike anywhere
     near its row (:func:`stereo_pair_evidence`): the images are not two views of one
-    scene. One warning at most; rectified pairs with many matches do not pay for either
-    check."""
+    scene. One warning at most, and True when it was given; rectified pairs with many
+    matches do not pay for either check."""
     if n_matches >= RECTIFICATION_SUSPICIOUS * min(len(q_pts), len(t_pts)):
-        return
+        return False
     if not len(qd) or not len(td):
-        return
+        return False
     if fundamental is None:
         ev = rectification_evidence(q_pts, t_pts, qd, td, config.min_disparity,
                                     config.max_disparity, config.max_vertical)
@@ -167,7 +167,7 @@ def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config) ->
                  f"(max_vertical={config.max_vertical:g}), so few true matches can be found; "
                  "rectify the pair (hopmatch.stereo.rectify) or call setFundamentalMatrix(F)",
                  UnrectifiedPairWarning)
-            return
+            return True
     st = stereo_pair_evidence(q_pts, t_pts, qd, td, config.min_disparity,
                               config.max_disparity)
     if st is not None and st[0] < STEREO_MIN_CLEAR and st[1] < STEREO_MIN_CLOSE:
@@ -180,3 +180,5 @@ def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config) ->
              "rectify_uncalibrated) or give their fundamental matrix (setFundamentalMatrix(F)"
              "); to find an object in a scene (find_obj.py), use SIFT or ORB with "
              "cv2.findHomography instead", NotStereoPairWarning)
+        return True
+    return False

@@ -227,5 +227,7 @@ def warn_fallback(found: DisparityRange, n_matches: int) -> None:
     if found.source == "fallback" and n_matches == 0:
         warn(f"max_disparity=None: the coarse pass kept fewer than {MIN_MATCHES} matches, so "
              f"the whole range [{found.min_disparity:g}, "
-             f"{found.max_disparity:g}] was searched, and no match was found there; give the "
-             "range (min_disparity, max_disparity) if you know it", DisparityRangeWarning)
+             f"{found.max_disparity:g}] was searched, and no match was found there; check "
+             "that the left image comes first (swapped images have negative disparities), "
+             "or give the range (min_disparity, max_disparity) if you know it",
+             DisparityRangeWarning)

@@ -259,8 +259,11 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     result, config = run_in_range(run_hopfield_network, found, config, q_pts, t_pts, qd, td,
                                   mask=mask, record_energy=record_energy,
                                   fundamental=fundamental)
-    warn_fallback(found, len(result.query_idx))
-    warn_if_unrectified(len(result.query_idx), q_pts, t_pts, qd, td, fundamental, config)
+    # one warning for one cause: a pair that is not a stereo pair (or not rectified) also
+    # defeats the range search, and the diagnosis says more than the fallback would
+    if not warn_if_unrectified(len(result.query_idx), q_pts, t_pts, qd, td, fundamental,
+                               config):
+        warn_fallback(found, len(result.query_idx))
     return result
 
 

@@ -146,10 +146,11 @@ def test_two_unrelated_images_of_one_size_warn():
 
 def test_stereo_pairs_are_not_called_unrelated(motorcycle):
     """Rectified, unrectified (rotated and shifted) and swapped views of one scene never get
-    the warning; the unrectified one gets the rectification warning alone."""
+    the warning; the unrectified one gets the rectification warning alone, the swapped one
+    the disparity-range warning (its disparities are negative) alone."""
     import cv2
 
-    from hopmatch.errors import UnrectifiedPairWarning
+    from hopmatch.errors import DisparityRangeWarning, UnrectifiedPairWarning
     from hopmatch.matching.diagnostics import NotStereoPairWarning
 
     left, right = (cv2.cvtColor(img, cv2.COLOR_RGB2GRAY) for img in motorcycle[:2])
@@ -159,7 +160,7 @@ def test_stereo_pairs_are_not_called_unrelated(motorcycle):
     for l_img, r_img, expected in ((left, right, []),
                                    (left, cv2.warpAffine(right, M, (w, h)),
                                     [UnrectifiedPairWarning]),
-                                   (right, left, [])):
+                                   (right, left, [DisparityRangeWarning])):
         _, caught = _caught(lambda a=l_img, b=r_img: hopmatch.match_stereo(a, b))
         categories = [w.category for w in caught]
         assert NotStereoPairWarning not in categories
