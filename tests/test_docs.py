@@ -81,7 +81,8 @@ API_OBJECTS = {
     "api-datasets.html": ["hopmatch.datasets.load_scene", "hopmatch.datasets.StereoScene"],
     "api-evaluate.html": ["hopmatch.evaluate.score_matches", "hopmatch.evaluate.MatchScore"],
     "api-viz.html": ["hopmatch.viz.draw_matches", "hopmatch.viz.draw_keypoints_on_gradient",
-                     "hopmatch.viz.draw_labelled_matches"],
+                     "hopmatch.viz.draw_labelled_matches", "hopmatch.viz.draw_match_overview",
+                     "hopmatch.viz.draw_keypoint_disparities"],
     "api-errors.html": ["hopmatch.errors.InvalidArgumentError",
                         "hopmatch.errors.BudgetExceededError"],
     "api-plugins.html": ["hopmatch_gapi.ops.GMatch", "hopmatch_gapi.kernels.kernels",
@@ -201,3 +202,19 @@ def test_enough_docstring_examples_ran(doctest_results):
                  "hopmatch.stereo", "hopmatch.datasets", "hopmatch.evaluate", "hopmatch.viz",
                  "hopmatch.errors"):
         assert counts.get(name, 0) > 0, f"{name} has no docstring examples"
+
+
+# --------------------------------------------------------------------------------------
+# README: numbers a user can reproduce (issue 19, point 8)
+# --------------------------------------------------------------------------------------
+
+
+def test_readme_speed_table_leads_with_ratios():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = text[text.index("**Speed**"):text.index("## Documentation")]
+    header = next(ln for ln in section.splitlines() if ln.startswith("| measurement"))
+    assert header.split("|")[2].strip() == "hopmatch / peer"
+    rows = [ln for ln in section.splitlines() if ln.startswith("| ") and "x |" in ln]
+    assert rows and all(re.search(r"\| \**[\d.]+x\** \|", ln) for ln in rows)
+    words = " ".join(section.split())
+    assert "depend on the machine" in words and "hopmatch demo" in words

@@ -84,12 +84,12 @@ def disparity_scale(disparities, min_disparity=None, max_disparity=None) -> tupl
     """``(lo, hi)`` of the colour scale: the given bounds, else ``lo = min(0, smallest
     disparity)`` and ``hi`` = the 99.5th percentile of the disparities (a few outliers do
     not squeeze the colours of all the others; larger values get the top colour), rounded
-    up to the scale's tick step. ``(0, 1)`` without disparities.
+    up to half its power of ten (61 -> 65, 12 -> 15). ``(0, 1)`` without disparities.
 
     Examples
     --------
     >>> disparity_scale([3.0, 12.5, 61.0])
-    (0.0, 70.0)
+    (0.0, 65.0)
     >>> disparity_scale([3.0, 12.5], 0, 64)
     (0.0, 64.0)
     """
@@ -101,9 +101,11 @@ def disparity_scale(disparities, min_disparity=None, max_disparity=None) -> tupl
         hi = float(max_disparity)
     elif d.size:
         top = float(np.percentile(d, 99.5))
-        ticks = nice_ticks(lo, max(top, lo + 1.0))
-        step = ticks[1] - ticks[0] if len(ticks) > 1 else 1.0
-        hi = math.ceil((top - lo) / step - 1e-9) * step + lo if top > lo else lo + 1.0
+        if top > lo:
+            unit = 10.0 ** math.floor(math.log10(top - lo)) / 2.0
+            hi = math.ceil((top - lo) / unit - 1e-9) * unit + lo
+        else:
+            hi = lo + 1.0
     else:
         hi = lo + 1.0
     if not (np.isfinite(lo) and np.isfinite(hi)):

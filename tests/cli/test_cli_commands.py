@@ -32,6 +32,16 @@ def test_demo(tmp_path):
     assert 0 <= int(correct) <= int(scored) <= n_matches
     assert 0.0 <= float(printed(res.stdout, "precision")) <= 1.0
     assert re.match(r"\d+ ms", printed(res.stdout, "time"))
+    # numbers a user can reproduce: steady-state time and the ratio to ORB timed right there
+    steady = re.match(r"(\d+) ms per pair in steady state \(best of 5 rounds, one thread; "
+                      r"the first call took \d+ ms", printed(res.stdout, "time"))
+    assert steady, printed(res.stdout, "time")
+    speed = re.match(r"([\d.]+)x the time of ORB\(3000\) \+ BFMatcher ratio test \((\d+) ms\)"
+                     r", timed here", printed(res.stdout, "speed"))
+    assert speed, printed(res.stdout, "speed")
+    ratio, orb_ms = float(speed.group(1)), float(speed.group(2))
+    assert 0.05 < ratio < 20 and orb_ms > 0
+    assert ratio == pytest.approx(float(steady.group(1)) / orb_ms, rel=0.1, abs=0.02)
 
     header, rows = read_csv(out / "matches.csv")
     assert header == MATCH_FIELDS
@@ -46,6 +56,10 @@ def test_demo(tmp_path):
     info = json.loads((out / "run.json").read_text())
     assert info["counts"]["matches"] == n_matches
     assert info["counts"]["correct_at_1px"] == int(correct)
+    t = info["timings_ms"]
+    assert info["speed"]["ratio_to_orb"] == pytest.approx(
+        t["steady_state"] / t["orb_ratio_steady_state"], abs=1e-3)
+    assert info["speed"]["threads"] == 1 and info["speed"]["rounds"] == 5
 
 
 # --------------------------------------------------------------------------------------
