@@ -30,6 +30,10 @@ MAX_COORDINATE = float(2**20)
 #: the descriptors of the keypoints found.
 DETECTOR_BYTES_PER_PIXEL = 45
 
+#: The detector's ``max_pixels`` by default (about 2.2 GiB of detection memory), also the
+#: limit :func:`hopmatch.imageio.read_image` reads image headers against by default.
+DEFAULT_MAX_PIXELS = 50_000_000
+
 
 def _native(arr: np.ndarray) -> np.ndarray:
     """``arr`` in the machine's byte order (cv2 reads big-endian buffers as native ones)."""
@@ -64,7 +68,7 @@ def check_pixel_budget(shape, max_pixels: int | None, name: str = "image") -> No
             f"`{name}` has {shape[0]} x {shape[1]} = {n} pixels, more than max_pixels="
             f"{max_pixels}; detection needs about {DETECTOR_BYTES_PER_PIXEL} bytes per pixel "
             f"(~{need:.1f} GiB here): downscale the image (cv2.resize), process it in tiles, "
-            f"or raise the limit, e.g. DericheMoravecDetector.create(max_pixels={n})"
+            f"or raise the limit to max_pixels={n} or more"
         )
 
 

@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import errno
 import os
-import pathlib
-import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
 
 import cv2
 import numpy as np
 import pytest
 
+import hopmatch._files
 from hopmatch.errors import InvalidArgumentError, InvalidTypeError
 from hopmatch.imageio import DEFAULT_FLAGS, KINDS, ImageReadError, os_reason, read_image
 
@@ -72,22 +72,17 @@ class TestGoodFiles:
         np.testing.assert_array_equal(read_image(str(odd)), arrays["grey"])
 
     @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
-    def test_named_pipe(self, files, tmp_path):
-        paths, arrays = files
+    def test_named_pipe_is_refused_before_it_is_opened(self, tmp_path):
+        """Issue 20: a pipe with no writer blocked ``open()`` forever (a whole batch with
+        it). A pipe is refused from its ``stat``, never opened, whoever writes to it."""
         fifo = tmp_path / "pipe.png"
         os.mkfifo(fifo)
-        data = paths["grey"].read_bytes()
-
-        def feed():
-            with open(fifo, "wb") as fh:
-                fh.write(data)
-
-        writer = threading.Thread(target=feed)
-        writer.start()
-        try:
-            np.testing.assert_array_equal(read_image(fifo), arrays["grey"])
-        finally:
-            writer.join(timeout=10)
+        t0 = time.perf_counter()
+        with pytest.raises(ImageReadError) as exc:
+            read_image(fifo)
+        assert time.perf_counter() - t0 < 1.0
+        assert exc.value.kind == "special" and "named pipe (FIFO)" in exc.value.problem
+        assert "save the data to a file first" in exc.value.problem
 
 
 BAD = [  # (key of the file, kind, words of the message)
@@ -115,10 +110,14 @@ class TestBadFiles:
     def test_unreadable(self, files, monkeypatch):
         paths, _ = files
 
-        def refuse(self):
-            raise PermissionError(errno.EACCES, "Permission denied", str(self))
+        real_open = os.open
 
-        monkeypatch.setattr(pathlib.Path, "read_bytes", refuse)
+        def refuse(path, flags, *args):  # as for a file of another user (the tests run as root)
+            if os.fspath(path) == str(paths["grey"]):
+                raise PermissionError(errno.EACCES, "Permission denied", str(path))
+            return real_open(path, flags, *args)
+
+        monkeypatch.setattr(hopmatch._files.os, "open", refuse)
         with pytest.raises(ImageReadError, match="cannot read the file: permission denied") as exc:
             read_image(paths["grey"])
         assert exc.value.kind == "unreadable"

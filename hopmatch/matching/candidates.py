@@ -65,9 +65,10 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
             np.ascontiguousarray(fundamental, dtype=np.float64), *band, budget)
     if n > max_neurons:
         raise BudgetExceededError(
-            f"the network would have {n} neurons (candidate pairs), more than max_neurons="
-            f"{max_neurons}; narrow the disparity range (min_disparity/max_disparity) or "
-            "max_vertical, use fewer keypoints, or raise max_neurons", argument="max_neurons"
+            f"the network would have {n} neurons (candidate pairs) or more (counted until "
+            f"past the budget), more than max_neurons={max_neurons}; narrow the disparity "
+            "range (min_disparity/max_disparity) or max_vertical, use fewer keypoints, or "
+            "raise max_neurons", argument="max_neurons"
         )
     if sort:
         ni, nk, _ = _kc.group_by_left(ni, nk, np.empty(len(ni)), len(left), False, 0.0)
