@@ -16,6 +16,7 @@ __all__ = [
     "InvalidTypeError",
     "BudgetExceededError",
     "PairInfoError",
+    "ConcurrentPairInfoError",
     "HopmatchWarning",
     "ImageSizeWarning",
     "DisparityRangeWarning",
@@ -78,6 +79,14 @@ class BudgetExceededError(InvalidArgumentError):
 
 class PairInfoError(InvalidArgumentError):
     """``HopfieldMatcher.match`` was called without, or with inconsistent, pair information."""
+
+
+class ConcurrentPairInfoError(PairInfoError):
+    """A ``HopfieldMatcher`` shared by threads had its pair information replaced by another
+    thread (``setPairInfo``, ``setFundamentalMatrix``, ``clearPairInfo``) after this
+    thread set its own, or while this thread was matching: the matches would belong to
+    another thread's keypoints, so none are returned. Give each thread its own matcher
+    (``matcher.clone(emptyTrainData=True)``)."""
 
 
 # -- warnings ------------------------------------------------------------------------------
