@@ -21,6 +21,7 @@ __all__ = [
     "ImageSizeWarning",
     "DisparityRangeWarning",
     "UnrectifiedPairWarning",
+    "FewMatchesWarning",
 ]
 
 
@@ -115,3 +116,9 @@ class DisparityRangeWarning(HopmatchWarning):
 class UnrectifiedPairWarning(HopmatchWarning):
     """The pair does not look rectified: the points' best look-alikes in a generous band lie
     well above or below them (see ``docs/robustness.md``, "Rectification check")."""
+
+
+class FewMatchesWarning(HopmatchWarning):
+    """A pair with enough keypoints gave no or almost no matches; the message says the
+    likely cause (different gain or dtype of the two images, an empty search window, no
+    neighbours, no active neuron...). See ``docs/robustness.md``, "Few matches"."""

@@ -82,7 +82,7 @@ def header_size(data: bytes) -> tuple[int, int] | None:
 
     Examples
     --------
-    >>> header_size(b"P5\n30000 20000\n255\n")
+    >>> header_size(b"P5\\n30000 20000\\n255\\n")
     (30000, 20000)
     >>> header_size(b"not an image") is None
     True

@@ -38,7 +38,7 @@ from .candidates import (  # noqa: E402, F401
     right_band_index,
     vertical_offsets,
 )
-from .diagnostics import warn_geometry, warn_if_unrectified
+from .diagnostics import warn_geometry, warn_if_few_matches, warn_if_unrectified
 from .disambiguate import disambiguate, vertically_consistent
 from .params import MatcherConfig, check_disparity_order, matcher_config
 from .similarity import (
@@ -254,7 +254,9 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     warn_geometry(pair.query_size, pair.train_size, fundamental, config)
     result = run_hopfield_network(q_pts, t_pts, qd, td, config, mask=mask,
                                   record_energy=record_energy, fundamental=fundamental)
-    warn_if_unrectified(len(result.query_idx), q_pts, t_pts, qd, td, fundamental, config)
+    if not warn_if_unrectified(len(result.query_idx), q_pts, t_pts, qd, td, fundamental,
+                               config):
+        warn_if_few_matches(result, q_pts, t_pts, qd, td, config)
     return result
 
 
