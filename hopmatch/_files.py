@@ -114,6 +114,9 @@ class FileWriteError(InvalidArgumentError, OSError):
     system gave one), so that code catching either keeps working; the message names the
     destination, never the temporary file used on the way."""
 
+    def __str__(self) -> str:  # the message, not OSError's "[Errno n] ..." of errno
+        return str(self.args[0]) if self.args else ""
+
 
 def _special_kind(mode: int) -> str:
     if stat.S_ISFIFO(mode):

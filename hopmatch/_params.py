@@ -65,12 +65,18 @@ class Check:
         The accepted values of a ``"choice"``; empty otherwise.
     optional : bool
         None is accepted (and kept).
+    lo, hi : number or None
+        The bounds of an ``"int"`` or ``"float"`` (None: int64's or the float range);
+        ``lo_open``: ``lo`` itself is refused.
     """
 
     kind: str
     func: Callable[[str, Any], Any]
     choices: tuple = ()
     optional: bool = False
+    lo: Any = None
+    hi: Any = None
+    lo_open: bool = False
 
     def __call__(self, name: str, value):
         try:
@@ -178,7 +184,7 @@ def integer(lo: int | None = None, hi: int | None = None, *, odd: bool = False,
     def check(name, value):
         return as_int(value, name, lo=lo, hi=hi, odd=odd, optional=optional)
 
-    return Check("int", check, optional=bool(optional))
+    return Check("int", check, optional=bool(optional), lo=lo, hi=hi)
 
 
 def real(lo=None, hi=None, *, lo_open=False, optional=False) -> Check:
@@ -186,7 +192,7 @@ def real(lo=None, hi=None, *, lo_open=False, optional=False) -> Check:
     def check(name, value):
         return as_real(value, name, lo=lo, hi=hi, lo_open=lo_open, optional=optional)
 
-    return Check("float", check, optional=bool(optional))
+    return Check("float", check, optional=bool(optional), lo=lo, hi=hi, lo_open=lo_open)
 
 
 def boolean() -> Check:
@@ -345,9 +351,10 @@ class Configurable:
                 storage.release()
             return
         if isinstance(fs, cv2.FileStorage):
-            node = fs.getNode(node_name)
-            if node.empty():
-                node = fs.root()
+            root = fs.root()  # getNode() of a root that is not a map is a cv2.error
+            node = fs.getNode(node_name) if root.isMap() else root
+            if not root.isMap() or node.empty():
+                node = root
                 if not node.isMap() or node.getNode(self.PARAMS[0].name).empty():
                     raise InvalidArgumentError(f"`fs` holds no node named {node_name!r}",
                                                argument="fs")
@@ -374,7 +381,7 @@ class Configurable:
                     values[p.name] = int(text)  # beyond int32, as write() stores it
             elif sub.isInt():
                 number = sub.real()
-                if abs(number) > _EXACT_INT:
+                if abs(number) >= _EXACT_INT:  # 2**53 + 1 reads as 2**53 too
                     raise InvalidArgumentError(
                         f"`fs`: parameter `{p.name}` holds the integer {number:.17g}, beyond "
                         f"the 2**53 that cv2.FileStorage reads exactly; write it as a string "
