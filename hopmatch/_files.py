@@ -1,17 +1,27 @@
-"""Files: all-or-nothing writes.
+"""Files: all-or-nothing writes, and the checks every file read goes through.
 
 Every file hopmatch writes (parameters, PLY clouds, calibrations, pictures, tables) goes
 through this module: it is written to a hidden temporary file in the destination folder,
 created as ``open(path, "w")`` would create it (mode 0o666 minus the umask), and moved onto
 its name with ``os.replace`` only once complete. On any exception, ``KeyboardInterrupt``
-included, the temporary file is removed and the destination is left as it was.
+included, the temporary file is removed and the destination is left as it was. A failure
+raises :class:`FileWriteError` (an ``InvalidArgumentError`` and an ``OSError``) naming the
+destination, never the temporary file.
+
+Every file hopmatch reads (images, FileStorage parameters, calibrations, PFM, tables) is
+checked first by :func:`check_input_file`, before it is opened: it must be a regular file
+(not a folder, named pipe, device or socket) of at most ``max_bytes`` bytes, else
+:class:`FileReadError` says which of these it is. :func:`read_input_bytes` then reads it
+without ever blocking and never past ``max_bytes``.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import secrets
+import stat
 from pathlib import Path
 
 import cv2
@@ -21,14 +31,250 @@ from ._validate import describe
 from .errors import InvalidArgumentError, InvalidTypeError
 
 __all__ = [
+    "FileReadError",
+    "FileWriteError",
+    "MAX_FILE_BYTES",
+    "MAX_TEXT_BYTES",
+    "READ_KINDS",
     "atomic_path",
+    "check_input_file",
+    "check_output_path",
     "encode_image",
     "new_temporary_file",
+    "os_reason",
+    "read_input_bytes",
+    "read_input_text",
     "write_bytes_atomic",
     "write_image_atomic",
     "write_temp",
     "write_text_atomic",
 ]
+
+#: Largest file read whole by default (images, PFM disparities, tables): 1 GiB. A 16-bit
+#: colour image of the detector's default 50 million pixels is 300 MB uncompressed.
+MAX_FILE_BYTES = 2**30
+#: Largest text file of parameters or calibration read (FileStorage, calib.txt): 64 MiB.
+MAX_TEXT_BYTES = 2**26
+
+#: What :attr:`FileReadError.kind` can be, and what each means.
+READ_KINDS = {
+    "missing": "no file or folder of that name (or a broken symbolic link)",
+    "folder": "the path names a folder",
+    "special": "a named pipe, device or socket: not a regular file",
+    "unreadable": "the operating system refused the path (permission, symbolic link loop, "
+                  "name too long...)",
+    "too_large": "the file holds more bytes than the reader's limit",
+}
+
+#: Longest file name (one path component), in bytes, on the usual file systems.
+NAME_MAX = 255
+
+
+def os_reason(exc: OSError) -> str:
+    """A short, plain reason for an ``OSError`` ("permission denied", ...).
+
+    Examples
+    --------
+    >>> os_reason(PermissionError(errno.EACCES, "Permission denied"))
+    'permission denied'
+    """
+    return {
+        errno.ENOTDIR: "a part of the path is a file, not a folder",
+        errno.EEXIST: "a file of that name exists",
+        errno.EACCES: "permission denied",
+        errno.EPERM: "permission denied",
+        errno.EROFS: "read-only file system",
+        errno.ENOSPC: "no space left on the device",
+        errno.ENOENT: "no such file or folder",
+        errno.ELOOP: "a symbolic link loop (too many levels of symbolic links)",
+        errno.ENAMETOOLONG: f"the name is too long (more than {NAME_MAX} bytes in one part "
+                            "of the path, or 4096 in all)",
+        errno.EISDIR: "is a folder",
+    }.get(exc.errno, exc.strerror or str(exc))
+
+
+class FileReadError(InvalidArgumentError):
+    """A file to read is missing, not a regular file, too large or refused by the system.
+
+    ``path`` and ``problem`` hold the two halves of the message ``"<path>: <problem>"``;
+    ``kind`` is one of the keys of :data:`READ_KINDS` (or None).
+    """
+
+    def __init__(self, path, problem: str, kind: str | None = None,
+                 argument: str | None = None):
+        self.path = os.fspath(path)
+        self.problem = problem
+        self.kind = kind
+        super().__init__(f"{self.path}: {problem}", argument=argument)
+
+
+class FileWriteError(InvalidArgumentError, OSError):
+    """A file cannot be written: its folder is missing or unwritable, its name too long,
+    or a folder stands where it should go. Also an ``OSError`` (``errno`` set when the
+    system gave one), so that code catching either keeps working; the message names the
+    destination, never the temporary file used on the way."""
+
+    def __str__(self) -> str:  # the message, not OSError's "[Errno n] ..." of errno
+        return str(self.args[0]) if self.args else ""
+
+
+def _special_kind(mode: int) -> str:
+    if stat.S_ISFIFO(mode):
+        return "a named pipe (FIFO)"
+    if stat.S_ISCHR(mode):
+        return "a character device"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def _size_text(n: int) -> str:
+    for unit, size in (("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if n >= size:
+            return f"{n / size:.1f} {unit}"
+    return f"{n} bytes"
+
+
+def _stat_problem(path, st, max_bytes: int | None):
+    """``(kind, problem)`` of a file whose ``os.stat`` is ``st``, or None when it is fine."""
+    if stat.S_ISDIR(st.st_mode):
+        return "folder", "is a folder, not a file"
+    if not stat.S_ISREG(st.st_mode):
+        return "special", (f"is {_special_kind(st.st_mode)}, not a regular file; hopmatch "
+                           "reads only regular files (save the data to a file first)")
+    if max_bytes is not None and st.st_size > max_bytes:
+        return "too_large", (f"is {_size_text(st.st_size)} ({st.st_size} bytes), more than "
+                             f"the {_size_text(max_bytes)} this reader takes at most")
+    return None
+
+
+def check_input_file(path, max_bytes: int | None = MAX_FILE_BYTES, *,
+                     argument: str | None = None) -> os.stat_result:
+    """Check, without opening it, that ``path`` names a regular file of at most
+    ``max_bytes`` bytes (None: any size); return its ``os.stat`` (links followed).
+
+    Raises
+    ------
+    FileReadError
+        ``kind`` ``"missing"`` (no such file, a broken symbolic link, a part of the path
+        that is a file), ``"folder"``, ``"special"`` (named pipe, device, socket),
+        ``"unreadable"`` (permission, symbolic link loop, name too long) or
+        ``"too_large"``; ``argument`` is set on it.
+    InvalidTypeError
+        ``path`` is not a str or ``os.PathLike``.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise InvalidTypeError(f"`{argument or 'path'}` must be a str or os.PathLike, got "
+                               f"{describe(path)}", argument=argument)
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        broken = os.path.islink(path)
+        raise FileReadError(path, "is a symbolic link to a missing file" if broken
+                            else "no such file", kind="missing", argument=argument) from None
+    except NotADirectoryError:
+        raise FileReadError(path, "no such file: a part of the path is a file, not a folder",
+                            kind="missing", argument=argument) from None
+    except OSError as exc:
+        raise FileReadError(path, f"cannot read the file: {os_reason(exc)}",
+                            kind="unreadable", argument=argument) from None
+    except ValueError:  # an embedded NUL character
+        raise FileReadError(path, "is not a valid file name (it holds a NUL character)",
+                            kind="missing", argument=argument) from None
+    problem = _stat_problem(path, st, max_bytes)
+    if problem is not None:
+        raise FileReadError(path, problem[1], kind=problem[0], argument=argument)
+    return st
+
+
+def read_input_bytes(path, max_bytes: int | None = MAX_FILE_BYTES, *,
+                     argument: str | None = None) -> bytes:
+    """The bytes of the regular file ``path`` (:func:`check_input_file`), read without
+    blocking and never past ``max_bytes``: the file is opened non-blocking and checked
+    again through the open descriptor, so a path swapped for a named pipe or a device in
+    between is refused as well, and a file that grows while read is refused as too large.
+    """
+    check_input_file(path, max_bytes, argument=argument)
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0) \
+        | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
+    try:
+        fd = os.open(path, flags)
+    except OSError as exc:
+        raise FileReadError(path, f"cannot read the file: {os_reason(exc)}",
+                            kind="unreadable", argument=argument) from None
+    try:
+        problem = _stat_problem(path, os.fstat(fd), max_bytes)
+        if problem is not None:
+            raise FileReadError(path, problem[1], kind=problem[0], argument=argument)
+        limit = None if max_bytes is None else max_bytes + 1
+        chunks, total = [], 0
+        while limit is None or total < limit:
+            chunk = os.read(fd, 1 << 24 if limit is None else min(1 << 24, limit - total))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+    except OSError as exc:
+        raise FileReadError(path, f"cannot read the file: {os_reason(exc)}",
+                            kind="unreadable", argument=argument) from None
+    finally:
+        os.close(fd)
+    if max_bytes is not None and total > max_bytes:
+        raise FileReadError(path, f"grew past the {_size_text(max_bytes)} this reader takes at "
+                                  "most while it was read", kind="too_large", argument=argument)
+    return b"".join(chunks)
+
+
+def read_input_text(path, max_bytes: int | None = MAX_TEXT_BYTES, *, encoding="utf-8",
+                    argument: str | None = None) -> str:
+    """:func:`read_input_bytes` decoded (universal newlines, as ``Path.read_text``);
+    ``UnicodeDecodeError`` passes through for the caller to word."""
+    data = read_input_bytes(path, max_bytes, argument=argument)
+    return data.decode(encoding).replace("\r\n", "\n").replace("\r", "\n")
+
+
+def check_output_path(path, name: str = "path") -> Path:
+    """``path`` as a Path that a file can be written to: its folder exists, no folder
+    stands at ``path`` and its name is at most :data:`NAME_MAX` bytes; else
+    :class:`FileWriteError` naming ``path`` (``argument`` = ``name``)."""
+    path = Path(path)
+    folder = path.parent
+    if len(os.fsencode(path.name)) > NAME_MAX:
+        raise FileWriteError(f"`{name}`: cannot write {str(path)!r}: the file name is "
+                             f"{len(os.fsencode(path.name))} bytes long, more than the "
+                             f"{NAME_MAX} a file system allows", argument=name)
+    try:
+        is_dir = folder.is_dir()
+    except OSError as exc:
+        raise FileWriteError(f"`{name}`: cannot write {str(path)!r}: {os_reason(exc)}",
+                             argument=name) from None
+    if not is_dir:
+        raise FileWriteError(
+            f"`{name}`: the folder {str(folder)!r} of {str(path)!r} does not exist"
+            + (" (it is a file)" if folder.exists() else ""), argument=name)
+    if path.is_dir():
+        raise FileWriteError(f"`{name}`: cannot write {str(path)!r}: a folder of that name "
+                             "is there", argument=name)
+    return path
+
+
+def _write_error(path, name: str, exc: OSError) -> FileWriteError:
+    err = FileWriteError(f"`{name}`: cannot write {str(path)!r}: {os_reason(exc)}",
+                         argument=name)
+    err.errno, err.strerror, err.filename = exc.errno, exc.strerror, os.fspath(path)
+    return err
+
+
+def _temporary_name(name: str, suffix: str) -> str:
+    """``.{name}.<random>.tmp{suffix}``, ``name`` cut so that the whole stays within
+    :data:`NAME_MAX` bytes (a destination name of 250 bytes is valid; its temporary name
+    must be too)."""
+    room = NAME_MAX - len(os.fsencode(f"..{'0' * 8}.tmp{suffix}"))
+    while len(os.fsencode(name)) > room and name:
+        name = name[:-1]
+    return f".{name}.{secrets.token_hex(4)}.tmp{suffix}"
 
 
 def new_temporary_file(folder, name: str, suffix: str = "") -> tuple[int, Path]:
@@ -36,10 +282,12 @@ def new_temporary_file(folder, name: str, suffix: str = "") -> tuple[int, Path]:
 
     The file is created with mode 0o666 minus the umask (``tempfile.mkstemp`` would give
     0o600), so a renamed result has the permissions any other new file of the user has.
+    ``name`` is shortened when needed so that the temporary name fits in
+    :data:`NAME_MAX` bytes. ``OSError`` passes through (callers name the destination).
     """
     folder = Path(folder)
     for _ in range(100):
-        tmp = folder / f".{name}.{secrets.token_hex(4)}.tmp{suffix}"
+        tmp = folder / _temporary_name(name, suffix)
         try:
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0),
                          0o666)
@@ -55,20 +303,23 @@ def atomic_path(path, name: str = "path"):
 
     For writers that need a file name (``cv2.FileStorage``, ``cv2.imwrite``): the temporary
     file keeps ``path``'s suffix (``.yml.gz`` included), from which such writers choose the
-    format. On any exception it is removed and ``path`` is left as it was.
+    format. On any exception it is removed and ``path`` is left as it was. A destination
+    that cannot be written (:func:`check_output_path`, or the system's refusal) raises
+    :class:`FileWriteError` naming ``path`` and ``name``.
     """
-    path = Path(path)
-    folder = path.parent
-    if not folder.is_dir():
-        raise InvalidArgumentError(
-            f"`{name}`: the folder {str(folder)!r} of {str(path)!r} does not exist"
-        )
+    path = check_output_path(path, name)
     suffix = "".join(path.suffixes[-2:]) if path.suffix == ".gz" else path.suffix
-    fd, tmp = new_temporary_file(folder, path.name, suffix)
+    try:
+        fd, tmp = new_temporary_file(path.parent, path.name, suffix)
+    except OSError as exc:
+        raise _write_error(path, name, exc) from None
     os.close(fd)
     try:
         yield tmp
-        os.replace(tmp, path)
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:
+            raise _write_error(path, name, exc) from None
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
@@ -79,7 +330,7 @@ def write_temp(folder, name: str, data: bytes) -> Path:
     """Write ``data`` to a new hidden temporary file in ``folder`` and return its path.
 
     The name is ``.{name}.<random>.tmp``; the data is flushed to disk; nothing is left
-    behind if writing fails.
+    behind if writing fails (``OSError`` passes through).
     """
     fd, tmp = new_temporary_file(folder, name)
     try:
@@ -94,15 +345,23 @@ def write_temp(folder, name: str, data: bytes) -> Path:
     return tmp
 
 
-def write_bytes_atomic(path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` through a temporary file in the same folder + ``os.replace``."""
-    path = Path(path)
-    tmp = write_temp(path.parent, path.name, data)
+def write_bytes_atomic(path, data: bytes, name: str = "path") -> Path:
+    """Write ``data`` to ``path`` through a temporary file in the same folder + ``os.replace``.
+
+    Raises :class:`FileWriteError` (an ``OSError``) naming ``path`` when it cannot be
+    written; the destination is then left as it was."""
+    path = check_output_path(path, name)
+    try:
+        tmp = write_temp(path.parent, path.name, data)
+    except OSError as exc:
+        raise _write_error(path, name, exc) from None
     try:
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+        if isinstance(exc, OSError):
+            raise _write_error(path, name, exc) from None
         raise
     return path
 
@@ -128,8 +387,9 @@ def encode_image(image, ext: str = ".png") -> bytes:
 def write_image_atomic(path, image) -> Path:
     """Encode ``image`` for ``path``'s suffix (``.png``, ``.jpg``...) and write it atomically.
 
-    Unlike ``cv2.imwrite``, failure raises (``OSError``, or ``InvalidArgumentError`` for an
-    unknown suffix) instead of returning False, and never leaves a partial file.
+    Unlike ``cv2.imwrite``, failure raises (:class:`FileWriteError`, an ``OSError``, or
+    ``InvalidArgumentError`` for an unknown suffix) instead of returning False, and never
+    leaves a partial file.
     """
     path = Path(path)
     return write_bytes_atomic(path, encode_image(image, path.suffix or ".png"))

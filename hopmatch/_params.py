@@ -17,6 +17,7 @@ from __future__ import annotations
 import inspect
 import numbers
 import os
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -24,11 +25,19 @@ from typing import Any
 
 import cv2
 
-from ._files import atomic_path
+from ._files import MAX_TEXT_BYTES, FileReadError, atomic_path, check_input_file
 from ._validate import as_int, as_real
 from .errors import HopmatchError, InvalidArgumentError, InvalidTypeError
 
 _NONE_MARK = "__none__"
+
+#: Integers FileStorage stores as numbers: those of int32. Others are written as decimal
+#: strings (some cv2 bindings write Python ints beyond int32 as ``true``, and every one
+#: reads numbers back as float64, exact only within 2**53), and read back exactly.
+_INT32 = (-(2**31), 2**31 - 1)
+#: Largest integer a FileStorage number holds exactly (it is read as a float64).
+_EXACT_INT = 2**53
+_DECIMAL = re.compile(r"^[+-]?[0-9]+$")
 
 
 #: The kinds of parameter value (:attr:`Param.kind`).
@@ -56,12 +65,18 @@ class Check:
         The accepted values of a ``"choice"``; empty otherwise.
     optional : bool
         None is accepted (and kept).
+    lo, hi : number or None
+        The bounds of an ``"int"`` or ``"float"`` (None: int64's or the float range);
+        ``lo_open``: ``lo`` itself is refused.
     """
 
     kind: str
     func: Callable[[str, Any], Any]
     choices: tuple = ()
     optional: bool = False
+    lo: Any = None
+    hi: Any = None
+    lo_open: bool = False
 
     def __call__(self, name: str, value):
         try:
@@ -169,7 +184,7 @@ def integer(lo: int | None = None, hi: int | None = None, *, odd: bool = False,
     def check(name, value):
         return as_int(value, name, lo=lo, hi=hi, odd=odd, optional=optional)
 
-    return Check("int", check, optional=bool(optional))
+    return Check("int", check, optional=bool(optional), lo=lo, hi=hi)
 
 
 def real(lo=None, hi=None, *, lo_open=False, optional=False) -> Check:
@@ -177,7 +192,7 @@ def real(lo=None, hi=None, *, lo_open=False, optional=False) -> Check:
     def check(name, value):
         return as_real(value, name, lo=lo, hi=hi, lo_open=lo_open, optional=optional)
 
-    return Check("float", check, optional=bool(optional))
+    return Check("float", check, optional=bool(optional), lo=lo, hi=hi, lo_open=lo_open)
 
 
 def boolean() -> Check:
@@ -263,7 +278,12 @@ class Configurable:
     def write(self, fs, name: str | None = None) -> None:
         """Write every parameter to ``fs``: a path (``.yml``, ``.yaml``, ``.xml``, ``.json``)
         or an open ``cv2.FileStorage``. A path is written atomically (temporary file, then
-        rename), so a failed write never leaves a half-written file."""
+        rename), so a failed write never leaves a half-written file; a folder that cannot
+        be written raises :class:`~hopmatch._files.FileWriteError` naming ``path``.
+
+        Every value round-trips exactly through :meth:`read`: integers outside int32 are
+        stored as decimal strings (``seed: "9223372036854775807"``), floats with 17
+        significant digits."""
         node = name or self.getDefaultName()
         if isinstance(fs, (str, os.PathLike)):
             path = Path(fs)
@@ -272,7 +292,8 @@ class Configurable:
                     f"`fs` path must end in .yml, .yaml, .xml or .json, got {str(path)!r}"
                 )
             if not path.parent.is_dir():
-                raise InvalidArgumentError(f"`fs`: folder {str(path.parent)!r} does not exist")
+                raise InvalidArgumentError(f"`fs`: folder {str(path.parent)!r} does not exist",
+                                           argument="fs")
             with atomic_path(path, "fs") as tmp:
                 out = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
                 self._write_node(out, node)
@@ -295,7 +316,10 @@ class Configurable:
             elif isinstance(value, bool):
                 fs.write(p.name, int(value))
             elif isinstance(value, int):
-                fs.write(p.name, int(value))
+                if _INT32[0] <= value <= _INT32[1]:
+                    fs.write(p.name, int(value))
+                else:
+                    fs.write(p.name, str(int(value)))
             elif isinstance(value, float):
                 fs.write(p.name, float(value))
             else:
@@ -307,8 +331,14 @@ class Configurable:
         ``cv2.FileNode``. Values are validated as if passed to the constructor."""
         node_name = name or self.getDefaultName()
         if isinstance(fs, (str, os.PathLike)):
-            if not Path(fs).is_file():
-                raise InvalidArgumentError(f"`fs`: no such file {str(fs)!r}")
+            try:
+                check_input_file(fs, MAX_TEXT_BYTES, argument="fs")
+            except FileReadError as exc:
+                if exc.problem == "no such file":  # the words of before
+                    raise InvalidArgumentError(f"`fs`: no such file {str(fs)!r}",
+                                               argument="fs") from None
+                raise InvalidArgumentError(f"`fs`: {str(fs)!r} {exc.problem}",
+                                           argument="fs") from None
             try:
                 storage = cv2.FileStorage(str(fs), cv2.FILE_STORAGE_READ)
             except (cv2.error, SystemError) as exc:  # SystemError: some cv2 builds on garbage
@@ -321,17 +351,24 @@ class Configurable:
                 storage.release()
             return
         if isinstance(fs, cv2.FileStorage):
-            node = fs.getNode(node_name)
-            if node.empty():
-                node = fs.root()
-                if node.getNode(self.PARAMS[0].name).empty():
-                    raise InvalidArgumentError(f"`fs` holds no node named {node_name!r}")
+            root = fs.root()  # getNode() of a root that is not a map is a cv2.error
+            node = fs.getNode(node_name) if root.isMap() else root
+            if not root.isMap() or node.empty():
+                node = root
+                if not node.isMap() or node.getNode(self.PARAMS[0].name).empty():
+                    raise InvalidArgumentError(f"`fs` holds no node named {node_name!r}",
+                                               argument="fs")
         elif isinstance(fs, cv2.FileNode):
             node = fs
         else:
             raise InvalidTypeError(
                 f"`fs` must be a path, a cv2.FileStorage or a cv2.FileNode, got {type(fs).__name__}"
             )
+        if not node.isMap():
+            raise InvalidTypeError(
+                f"`fs`: node {node_name!r} holds {_node_kind(node)}; expected a map of "
+                f"parameters (see {type(self).__name__}().write(path) for the format)",
+                argument="fs")
         values = {}
         for p in self.PARAMS:
             sub = node.getNode(p.name)
@@ -340,12 +377,24 @@ class Configurable:
             if sub.isString():
                 text = sub.string()
                 values[p.name] = None if text == _NONE_MARK else text
+                if p.kind == "int" and _DECIMAL.match(text):
+                    values[p.name] = int(text)  # beyond int32, as write() stores it
             elif sub.isInt():
-                values[p.name] = int(sub.real())
+                number = sub.real()
+                if abs(number) >= _EXACT_INT:  # 2**53 + 1 reads as 2**53 too
+                    raise InvalidArgumentError(
+                        f"`fs`: parameter `{p.name}` holds the integer {number:.17g}, beyond "
+                        f"the 2**53 that cv2.FileStorage reads exactly; write it as a string "
+                        f"(\"{int(number)}\"), as {type(self).__name__}().write() does",
+                        argument="fs")
+                values[p.name] = int(number)
             elif sub.isReal():
                 values[p.name] = float(sub.real())
+                if p.kind == "int" and values[p.name].is_integer() \
+                        and abs(values[p.name]) <= _EXACT_INT:
+                    values[p.name] = int(values[p.name])  # "5." or "5.0" for an integer
             else:  # a sequence, a map or an empty value: not a parameter value
-                kind = "a sequence" if sub.isSeq() else "a map" if sub.isMap() else "no value"
+                kind = _node_kind(sub)
                 raise InvalidTypeError(
                     f"`fs`: parameter `{p.name}` holds {kind}; expected a single number or "
                     f"string (see {type(self).__name__}().write(path) for the format)"
@@ -378,6 +427,19 @@ class Configurable:
 
     def __setstate__(self, state):
         self._init_params(state_params(self, state))
+
+
+def _node_kind(node) -> str:
+    """What a FileNode holds, in words."""
+    if node.isSeq():
+        return "a sequence"
+    if node.isMap():
+        return "a map"
+    if node.isString():
+        return "a string"
+    if node.isInt() or node.isReal():
+        return "a number"
+    return "no value"
 
 
 def state_params(obj, state) -> dict:

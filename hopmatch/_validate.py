@@ -30,6 +30,10 @@ MAX_COORDINATE = float(2**20)
 #: the descriptors of the keypoints found.
 DETECTOR_BYTES_PER_PIXEL = 45
 
+#: The detector's ``max_pixels`` by default (about 2.2 GiB of detection memory), also the
+#: limit :func:`hopmatch.imageio.read_image` reads image headers against by default.
+DEFAULT_MAX_PIXELS = 50_000_000
+
 
 def _native(arr: np.ndarray) -> np.ndarray:
     """``arr`` in the machine's byte order (cv2 reads big-endian buffers as native ones)."""
@@ -64,7 +68,7 @@ def check_pixel_budget(shape, max_pixels: int | None, name: str = "image") -> No
             f"`{name}` has {shape[0]} x {shape[1]} = {n} pixels, more than max_pixels="
             f"{max_pixels}; detection needs about {DETECTOR_BYTES_PER_PIXEL} bytes per pixel "
             f"(~{need:.1f} GiB here): downscale the image (cv2.resize), process it in tiles, "
-            f"or raise the limit, e.g. DericheMoravecDetector.create(max_pixels={n})"
+            f"or raise the limit to max_pixels={n} or more"
         )
 
 
@@ -359,10 +363,24 @@ def as_matrix(value, name: str, shape: tuple[int, int]) -> np.ndarray:
     return arr
 
 
+#: Frobenius norms of F used as they come; outside, F is rescaled (see
+#: :func:`as_fundamental_matrix`). Within them, the epipolar lines of points within
+#: +-2**20 px neither overflow nor underflow in float64.
+F_NORM_RANGE = (2.0**-4, 2.0**4)
+
+
 def as_fundamental_matrix(F, name: str = "F", *, optional: bool = False) -> np.ndarray | None:
     """A fundamental matrix (``x_r^T F x_l = 0``, as ``cv2.findFundamentalMat`` returns it):
     any finite 3 x 3 array-like, not all zero, returned as a new C-contiguous float64
-    array; None passes through when ``optional``."""
+    array; None passes through when ``optional``.
+
+    F is defined up to scale, and an extreme scale breaks the arithmetic of the epipolar
+    lines (``F * 1e-200`` underflows to lines of zero length: no candidate; ``F * 1e200``
+    overflows: every point on every line). A matrix whose Frobenius norm is outside
+    :data:`F_NORM_RANGE` is therefore multiplied by the power of two that brings its norm
+    into [0.5, 1): exact in floating point, so it changes no line, distance or match,
+    only their under- and overflow.
+    """
     if F is None and optional:
         return None
     if F is None or isinstance(F, (str, bytes)):
@@ -375,7 +393,11 @@ def as_fundamental_matrix(F, name: str = "F", *, optional: bool = False) -> np.n
     f = as_matrix(F, name, (3, 3))
     if not np.any(f):
         raise InvalidArgumentError(f"`{name}` must be finite and not all zeros")
-    return f
+    big = float(np.abs(f).max())
+    norm = big * float(np.sqrt(np.sum((f / big) ** 2)))  # no overflow on the way
+    if not F_NORM_RANGE[0] <= norm <= F_NORM_RANGE[1]:
+        f = np.ldexp(f, -np.frexp(norm)[1])  # norm in [0.5, 1), every entry exact
+    return np.ascontiguousarray(f)
 
 
 def cv2_call(what: str, func, *args, **kwargs):

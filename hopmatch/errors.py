@@ -16,10 +16,12 @@ __all__ = [
     "InvalidTypeError",
     "BudgetExceededError",
     "PairInfoError",
+    "ConcurrentPairInfoError",
     "HopmatchWarning",
     "ImageSizeWarning",
     "DisparityRangeWarning",
     "UnrectifiedPairWarning",
+    "FewMatchesWarning",
 ]
 
 
@@ -80,6 +82,14 @@ class PairInfoError(InvalidArgumentError):
     """``HopfieldMatcher.match`` was called without, or with inconsistent, pair information."""
 
 
+class ConcurrentPairInfoError(PairInfoError):
+    """A ``HopfieldMatcher`` shared by threads had its pair information replaced by another
+    thread (``setPairInfo``, ``setFundamentalMatrix``, ``clearPairInfo``) after this
+    thread set its own, or while this thread was matching: the matches would belong to
+    another thread's keypoints, so none are returned. Give each thread its own matcher
+    (``matcher.clone(emptyTrainData=True)``)."""
+
+
 # -- warnings ------------------------------------------------------------------------------
 #
 # A warning means: the call worked, but the input looks like a mistake that would give poor
@@ -106,3 +116,9 @@ class DisparityRangeWarning(HopmatchWarning):
 class UnrectifiedPairWarning(HopmatchWarning):
     """The pair does not look rectified: the points' best look-alikes in a generous band lie
     well above or below them (see ``docs/robustness.md``, "Rectification check")."""
+
+
+class FewMatchesWarning(HopmatchWarning):
+    """A pair with enough keypoints gave no or almost no matches; the message says the
+    likely cause (different gain or dtype of the two images, an empty search window, no
+    neighbours, no active neuron...). See ``docs/robustness.md``, "Few matches"."""

@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import errno
 import os
-import pathlib
-import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
 
 import cv2
 import numpy as np
 import pytest
 
+import hopmatch._files
 from hopmatch.errors import InvalidArgumentError, InvalidTypeError
 from hopmatch.imageio import DEFAULT_FLAGS, KINDS, ImageReadError, os_reason, read_image
 
@@ -72,22 +72,17 @@ class TestGoodFiles:
         np.testing.assert_array_equal(read_image(str(odd)), arrays["grey"])
 
     @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
-    def test_named_pipe(self, files, tmp_path):
-        paths, arrays = files
+    def test_named_pipe_is_refused_before_it_is_opened(self, tmp_path):
+        """Issue 20: a pipe with no writer blocked ``open()`` forever (a whole batch with
+        it). A pipe is refused from its ``stat``, never opened, whoever writes to it."""
         fifo = tmp_path / "pipe.png"
         os.mkfifo(fifo)
-        data = paths["grey"].read_bytes()
-
-        def feed():
-            with open(fifo, "wb") as fh:
-                fh.write(data)
-
-        writer = threading.Thread(target=feed)
-        writer.start()
-        try:
-            np.testing.assert_array_equal(read_image(fifo), arrays["grey"])
-        finally:
-            writer.join(timeout=10)
+        t0 = time.perf_counter()
+        with pytest.raises(ImageReadError) as exc:
+            read_image(fifo)
+        assert time.perf_counter() - t0 < 1.0
+        assert exc.value.kind == "special" and "named pipe (FIFO)" in exc.value.problem
+        assert "save the data to a file first" in exc.value.problem
 
 
 BAD = [  # (key of the file, kind, words of the message)
@@ -115,10 +110,14 @@ class TestBadFiles:
     def test_unreadable(self, files, monkeypatch):
         paths, _ = files
 
-        def refuse(self):
-            raise PermissionError(errno.EACCES, "Permission denied", str(self))
+        real_open = os.open
 
-        monkeypatch.setattr(pathlib.Path, "read_bytes", refuse)
+        def refuse(path, flags, *args):  # as for a file of another user (the tests run as root)
+            if os.fspath(path) == str(paths["grey"]):
+                raise PermissionError(errno.EACCES, "Permission denied", str(path))
+            return real_open(path, flags, *args)
+
+        monkeypatch.setattr(hopmatch._files.os, "open", refuse)
         with pytest.raises(ImageReadError, match="cannot read the file: permission denied") as exc:
             read_image(paths["grey"])
         assert exc.value.kind == "unreadable"
@@ -178,3 +177,102 @@ def test_os_reason():
     assert os_reason(PermissionError(errno.EACCES, "Permission denied")) == "permission denied"
     assert os_reason(OSError(errno.ENOSPC, "No space")) == "no space left on the device"
     assert os_reason(OSError(errno.EIO, "Input/output error")) == "Input/output error"
+
+
+# -- issue 20: special files, sizes and pixels are refused before anything is decoded -------
+
+
+def _png_header(width: int, height: int, bitdepth: int = 8, colour: int = 0) -> bytes:
+    """A PNG of one IHDR chunk announcing ``width x height`` and a short broken IDAT: a
+    decoder would need gigabytes for it, the header check needs none."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+
+    ihdr = struct.pack(">IIBBBBB", width, height, bitdepth, colour, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 64))
+            + chunk(b"IEND", b""))
+
+
+class TestLimits:
+    @pytest.mark.parametrize("name, data", [
+        ("png", _png_header(30000, 30000)),
+        ("png16rgb", _png_header(16000, 16000, 16, 2)),
+        ("pgm", b"P5\n60000 60000\n255\n" + b"\0" * 64),
+        ("ppm", b"P6\n40000 40000\n65535\n" + b"\0" * 64),
+        ("pam", b"P7\nWIDTH 50000\nHEIGHT 50000\nDEPTH 1\nMAXVAL 255\nTUPLTYPE GRAYSCALE\n"
+                b"ENDHDR\n" + b"\0" * 64),
+        ("hdr", b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 40000 +X 40000\n" + b"\0" * 64),
+    ])
+    def test_pixels_are_refused_from_the_header(self, tmp_path, monkeypatch, name, data):
+        path = tmp_path / f"big.{name}"
+        path.write_bytes(data)
+        decoded = []
+        monkeypatch.setattr(cv2, "imdecode", lambda *a: decoded.append(a))
+        t0 = time.perf_counter()
+        with pytest.raises(ImageReadError) as exc:
+            read_image(path)
+        assert time.perf_counter() - t0 < 1.0 and decoded == []
+        err = exc.value
+        assert err.kind == "too_many_pixels" and "more than max_pixels=50000000" in err.problem
+        assert "by its header" in err.problem and "max_pixels=" in err.problem
+
+    def test_pixel_limit_is_a_parameter(self, files):
+        paths, arrays = files
+        with pytest.raises(ImageReadError, match=r"20 = 600 pixels.*max_pixels=599"):
+            read_image(paths["grey"], max_pixels=599)
+        np.testing.assert_array_equal(read_image(paths["grey"], max_pixels=600), arrays["grey"])
+        np.testing.assert_array_equal(read_image(paths["grey"], max_pixels=None), arrays["grey"])
+        with pytest.raises(InvalidArgumentError, match="`max_pixels`"):
+            read_image(paths["grey"], max_pixels=0)
+        with pytest.raises(InvalidTypeError, match="`max_bytes`"):
+            read_image(paths["grey"], max_bytes=1.5)
+
+    def test_bytes_limit(self, files, tmp_path):
+        paths, _ = files
+        size = paths["grey"].stat().st_size
+        with pytest.raises(ImageReadError) as exc:
+            read_image(paths["grey"], max_bytes=size - 1)
+        assert exc.value.kind == "too_large" and "max_bytes" in exc.value.problem
+        sparse = tmp_path / "sparse.png"
+        with open(sparse, "wb") as fh:
+            fh.truncate(40 * 2**30)
+        t0 = time.perf_counter()
+        with pytest.raises(ImageReadError, match="40.0 GiB") as exc:
+            read_image(sparse)
+        assert exc.value.kind == "too_large" and time.perf_counter() - t0 < 1.0
+
+    @pytest.mark.skipif(not os.path.exists("/dev/zero"), reason="no /dev/zero here")
+    def test_devices_and_sockets(self, tmp_path):
+        import socket
+
+        sock = socket.socket(socket.AF_UNIX)
+        sock.bind(str(tmp_path / "s.png"))
+        for path, words in (("/dev/zero", "a character device"),
+                            (tmp_path / "s.png", "a socket")):
+            t0 = time.perf_counter()
+            with pytest.raises(ImageReadError) as exc:
+                read_image(path)
+            assert exc.value.kind == "special" and words in exc.value.problem
+            assert time.perf_counter() - t0 < 1.0
+
+    def test_symlink_loop_and_long_name_are_not_missing_files(self, tmp_path):
+        (tmp_path / "loop.png").symlink_to(tmp_path / "loop.png")
+        with pytest.raises(ImageReadError) as exc:
+            read_image(tmp_path / "loop.png")
+        assert exc.value.kind == "unreadable" and "symbolic link loop" in exc.value.problem
+        with pytest.raises(ImageReadError) as exc:
+            read_image(tmp_path / ("a" * 300 + ".png"))
+        assert exc.value.kind == "unreadable" and "too long" in exc.value.problem
+
+    def test_header_size(self, files):
+        from hopmatch.imageio import header_size
+
+        paths, _ = files
+        assert header_size(paths["grey"].read_bytes()) == (30, 20)
+        assert header_size(cv2.imencode(".jpg", np.zeros((7, 9), np.uint8))[1].tobytes()) == (9, 7)
+        assert header_size(cv2.imencode(".tiff", np.zeros((7, 9), np.uint8))[1].tobytes()) == (9, 7)
+        assert header_size(b"garbage") is None

@@ -3,10 +3,15 @@ validator naming it through ``.argument``."""
 
 from __future__ import annotations
 
+import math
+import os
+
 import pytest
 
+import hopmatch
 from hopmatch import DericheMoravecDetector, HopfieldMatcher
 from hopmatch._params import KINDS, Check, Configurable, Param, boolean, choice, integer, real
+from hopmatch._validate import INT64_MAX, INT64_MIN
 from hopmatch.errors import HopmatchError, InvalidArgumentError, InvalidTypeError
 
 ALL = DericheMoravecDetector.PARAMS + HopfieldMatcher.PARAMS
@@ -113,3 +118,117 @@ def test_subclass_docs_fill_only_empty_docs():
     docs = {p.name: p.doc for p in Thing.PARAMS}
     assert docs == {"size": "How big, in px.", "name": "Own.", "other": ""}
     assert Thing(size=5).getSize() == 5
+
+
+# -- issue 20: FileStorage round trip of every parameter at its bounds ---------------------
+
+
+
+def _extremes(spec):
+    """The values at the edges of what ``spec`` accepts (int64 and float range included)."""
+    check = spec.check
+    if spec.kind == "int":
+        lo = INT64_MIN if check.lo is None else max(check.lo, INT64_MIN)
+        hi = INT64_MAX if check.hi is None else min(check.hi, INT64_MAX)
+        values = [lo, hi, lo + 2, hi - 2, 2**31 - 1, 2**31, -(2**31) - 1, 2**53 + 1, 2**62 + 3]
+        values = [v for v in values if lo <= v <= hi]
+        if spec.name in ("window_size", "descriptor_size"):
+            values = [v for v in values if v % 2]
+    elif spec.kind == "float":
+        big = 1.7976931348623157e308
+        lo = -big if check.lo is None else float(check.lo)
+        hi = big if check.hi is None else float(check.hi)
+        low = math.nextafter(lo, math.inf) if check.lo_open else lo
+        values = [low, hi, 5e-324, -5e-324, 0.1, 1 / 3, 2.0**-1074 * 3, 1e-310, -0.0]
+        values = [v for v in values if low <= v <= hi]
+    elif spec.kind == "bool":
+        values = [True, False]
+    else:
+        values = list(spec.choices)
+    if spec.optional:
+        values.append(None)
+    return values
+
+
+@pytest.mark.parametrize("cls", [hopmatch.DericheMoravecDetector, hopmatch.HopfieldMatcher])
+@pytest.mark.parametrize("ext", ["yml", "json", "xml"])
+def test_filestorage_round_trip_at_every_bound(cls, ext, tmp_path):
+    """Every parameter at its bounds (int64 for unbounded integers, the float range, the
+    smallest denormal) comes back from write()/read() exactly; before issue 20 integers
+    beyond 2**53 came back rounded (seed=2**63-1 as 2**63, refused) and, with some cv2
+    builds, integers from 2**31 on as ``true``, i.e. 1."""
+    tried = 0
+    for spec in cls.PARAMS:
+        if spec.name == "preset":
+            continue
+        for value in _extremes(spec):
+            try:
+                obj = cls(**{spec.name: value})
+            except hopmatch.errors.HopmatchError:
+                continue  # refused by a check across parameters (max < min disparity)
+            path = tmp_path / f"{spec.name}.{ext}"
+            obj.write(str(path))
+            back = cls()
+            back.read(str(path))
+            got = back.get_params()[spec.name]
+            assert got == value and type(got) is type(obj.get_params()[spec.name]), \
+                (spec.name, value, got)
+            tried += 1
+    assert tried > 60
+
+
+def _storage(tmp_path, text, ext="yml"):
+    path = tmp_path / f"p.{ext}"
+    path.write_text(text)
+    return str(path)
+
+
+@pytest.mark.parametrize("body, words", [
+    ("hopmatch_DericheMoravecDetector: [1, 2, 3]\n", "holds a sequence"),
+    ("hopmatch_DericheMoravecDetector: 5\n", "holds a number"),
+    ("hopmatch_DericheMoravecDetector: abc\n", "holds a string"),
+])
+def test_read_refuses_a_node_that_is_not_a_map(tmp_path, body, words):
+    """Issue 20: these raised cv2.error (an assertion inside OpenCV)."""
+    path = _storage(tmp_path, "%YAML:1.0\n---\n" + body)
+    with pytest.raises(InvalidTypeError, match=f"`fs`: node .* {words}; expected a map") as e:
+        hopmatch.DericheMoravecDetector().read(path)
+    assert e.value.argument == "fs"
+
+
+def test_read_of_other_roots_and_integers(tmp_path):
+    with pytest.raises(InvalidArgumentError, match="holds no node named"):
+        hopmatch.HopfieldMatcher().read(_storage(tmp_path, "%YAML:1.0\n--- [1, 2]\n"))
+    with pytest.raises(InvalidTypeError, match="holds a sequence"):
+        hopmatch.HopfieldMatcher().read(_storage(tmp_path, '{"hopmatch_HopfieldMatcher": [1]}',
+                                                 "json"))
+    # an integer FileStorage cannot read exactly (beyond 2**53) is refused, not rounded
+    path = _storage(tmp_path, "%YAML:1.0\n---\nhopmatch_HopfieldMatcher:\n"
+                              "  seed: 9007199254740993\n")
+    with pytest.raises(InvalidArgumentError, match="beyond the 2\\*\\*53"):
+        hopmatch.HopfieldMatcher().read(path)
+    # as a string (what write() stores) it is exact; "5." for an integer is 5
+    path = _storage(tmp_path, '%YAML:1.0\n---\nhopmatch_HopfieldMatcher:\n'
+                              '  seed: "9007199254740993"\n  max_candidates: 5.\n')
+    m = hopmatch.HopfieldMatcher()
+    m.read(path)
+    assert (m.getSeed(), m.getMaxCandidates()) == (9007199254740993, 5)
+
+
+def test_read_refuses_special_files(tmp_path):
+    (tmp_path / "loop.yml").symlink_to(tmp_path / "loop.yml")
+    with pytest.raises(InvalidArgumentError, match="symbolic link loop"):
+        hopmatch.HopfieldMatcher().read(str(tmp_path / "loop.yml"))
+    if hasattr(os, "mkfifo"):
+        os.mkfifo(tmp_path / "pipe.yml")
+        with pytest.raises(InvalidArgumentError, match="named pipe"):
+            hopmatch.HopfieldMatcher().read(str(tmp_path / "pipe.yml"))
+
+
+def test_write_errors_name_the_destination(tmp_path):
+    (tmp_path / "d.yml").mkdir()
+    with pytest.raises(ValueError, match="d.yml.*a folder of that name") as e:
+        hopmatch.HopfieldMatcher().write(str(tmp_path / "d.yml"))
+    assert isinstance(e.value, OSError) and e.value.argument == "fs" and ".tmp" not in str(e.value)
+    with pytest.raises(ValueError, match="more than the 255"):
+        hopmatch.HopfieldMatcher().write(str(tmp_path / ("m" * 300 + ".yml")))

@@ -426,11 +426,16 @@ def test_unrectified_pair_warns_and_rectified_does_not():
     assert len(res.matches) > 50
     with pytest.warns(UnrectifiedPairWarning, match=r"median 5\.\d px"):
         match_stereo(left, np.roll(right, 5, axis=0), max_disparity=16)
-    # with the fundamental matrix of that vertical shift there is nothing to warn about
-    F = np.array([[0, 0, 0], [0, 0, -1], [0, 1, -5.0]])
+    # with the fundamental matrix of that vertical shift (content 5 px lower on the right:
+    # y_r = y_l + 5, i.e. x_r^T F x_l = y_l - y_r + 5) there is nothing to warn about. The
+    # sign of F's last entry was -5 before issue 20, which matched nothing, silently: the
+    # few-matches warning caught it
+    F = np.array([[0, 0, 0], [0, 0, -1], [0, 1, 5.0]])
     with warnings.catch_warnings():
         warnings.simplefilter("error", HopmatchWarning)
-        match_stereo(left, np.roll(right, 5, axis=0), max_disparity=16, fundamental_matrix=F)
+        res = match_stereo(left, np.roll(right, 5, axis=0), max_disparity=16,
+                           fundamental_matrix=F)
+    assert len(res.matches) > 50
 
 
 def test_warnings_are_hopmatch_warnings():

@@ -216,7 +216,10 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
 
     The search itself is :func:`_band_scan`; here the output grows by doubling up to
     ``max_neurons`` entries whenever a left point's pairs would not fit. Past that the
-    pairs are only counted: ``n > max_neurons`` then says so, and ``ni``/``nk`` are empty.
+    pairs are only counted, and the count stops at the first row of the band that takes it
+    past ``max_neurons`` (a refusal costs about ``max_neurons`` steps, not the band's
+    size): ``n > max_neurons`` then says so (``n`` a lower bound of the band's pairs), and
+    ``ni``/``nk`` are empty.
     """
     table, x0, inv, nb = row_buckets(row_start, rx,
                                      BUCKETS_PER_POINT * rx.shape[0] + BUCKET_SLACK)
@@ -229,7 +232,7 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
     while q < visit.shape[0]:
         q, p, n = _band_scan(left, visit, q, row_values, table, x0, inv, nb, order, rx, ry,
                              dmin, dmax, vmax, scale_l, scale_r_sorted, gate, eps, ni, nk,
-                             p, n, cap < max_neurons)
+                             p, n, cap < max_neurons, max_neurons)
         if q < visit.shape[0]:  # left point q did not fit: grow, then resume at it
             cap = min(2 * cap, max_neurons)
             ni = grown(ni, p, cap)
@@ -241,9 +244,10 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
 
 @jit
 def _band_scan(left, visit, q0, row_values, table, x0, inv, nb, order, rx, ry, dmin, dmax,
-               vmax, scale_l, scale_r_sorted, gate, eps, ni, nk, p, n, may_grow):
+               vmax, scale_l, scale_r_sorted, gate, eps, ni, nk, p, n, may_grow, limit):
     """The search of :func:`band_candidates` from ``visit[q0]`` on, into ``ni``/``nk``
-    (``p`` pairs written and ``n`` counted so far): returns ``(q, p, n)``.
+    (``p`` pairs written and ``n`` counted so far): returns ``(q, p, n)``; once ``n``
+    exceeds ``limit`` it returns at once (``q = len(visit)``).
 
     With ``may_grow``, it stops at the first left point q whose bucket ranges would not fit
     in the room left, before writing any of its pairs (``p``, ``n`` as they were before it),
@@ -294,6 +298,8 @@ def _band_scan(left, visit, q0, row_values, table, x0, inv, nb, order, rx, ry, d
                     nk[p] = order[t]
                     n += inside
                     p += inside & contrast_admits(sl, sr, similarity_norm(sl, sr, eps), gate)
+                if n > limit:  # past the budget: the caller refuses, counting on is moot
+                    return visit.shape[0], p, n
             elif may_grow:
                 return q, p_before, n_before
             else:  # at the budget: write while there is room, then only count
@@ -307,6 +313,8 @@ def _band_scan(left, visit, q0, row_values, table, x0, inv, nb, order, rx, ry, d
                                 ni[p] = i
                                 nk[p] = order[t]
                             p += 1
+                if n > limit:
+                    return visit.shape[0], p, n
     return visit.shape[0], p, n
 
 
@@ -337,8 +345,9 @@ def epipolar_candidates(left, right, order_x, rx_sorted, f, dmin, dmax, vmax, ma
     grouped by left point i increasing (within a group in x order: :func:`sort_groups` sorts
     them). ``order_x`` sorts the right points by x, ``rx_sorted`` is their x in that order.
 
-    As :func:`band_candidates`: the output grows up to ``max_neurons`` entries; past that the
-    pairs are only counted, ``n > max_neurons`` says so and ``ni``/``nk`` are empty.
+    As :func:`band_candidates`: the output grows up to ``max_neurons`` entries; past that
+    the count stops at the first pair beyond the budget, ``n > max_neurons`` says so and
+    ``ni``/``nk`` are empty.
     """
     cap = min(max_neurons, 8 * left.shape[0] + 1024)
     ni = np.empty(cap, dtype=np.int32)
@@ -362,6 +371,8 @@ def epipolar_candidates(left, right, order_x, rx_sorted, f, dmin, dmax, vmax, ma
                         ni[p] = i
                         nk[p] = k
                     p += 1
+                    if p > max_neurons:
+                        return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), p
     if p > max_neurons:
         return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), p
     return ni[:p].copy(), nk[:p].copy(), p

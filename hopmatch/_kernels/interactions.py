@@ -19,8 +19,13 @@ def compatibility(x, theta, slope):
 
 
 @jit
-def count_interactions(ni, nk, start, nb_off, nb_idx):
-    """Number of ordered pairs of neurons ((i, k), (j, l)) with j a neighbour of i, l != k."""
+def count_interactions(ni, nk, start, nb_off, nb_idx, limit=-1):
+    """Number of ordered pairs of neurons ((i, k), (j, l)) with j a neighbour of i, l != k.
+
+    With ``limit >= 0`` the count stops as soon as it exceeds ``limit`` and returns what
+    it has counted then (a number above ``limit``): the loop then takes at most about
+    ``limit`` steps, however many interactions there are (a budget check needs no more).
+    """
     total = 0
     for p in range(ni.shape[0]):
         i = ni[p]
@@ -30,6 +35,8 @@ def count_interactions(ni, nk, start, nb_off, nb_idx):
             for q in range(start[j], start[j + 1]):
                 if nk[q] != k:
                     total += 1
+            if limit >= 0 and total > limit:
+                return total
     return total
 
 

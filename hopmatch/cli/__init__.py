@@ -52,7 +52,7 @@ from .commands import demo, detect, match  # noqa: F401
 from .eval_command import eval_  # noqa: F401
 from .group import PluginGroup, cli  # noqa: F401
 from .options import given_parameters, parameter_options  # noqa: F401
-from .outputs import Outputs, read_image  # noqa: F401
+from .outputs import Outputs, Terminated, read_image, terminations_as_interrupts  # noqa: F401
 from .reporting import (  # noqa: F401
     EXIT_BAD_INPUT,
     EXIT_INTERNAL,
@@ -82,7 +82,8 @@ def main(argv=None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
     debug = _debug_requested(args)
     try:
-        rv = cli.main(args=args, prog_name="hopmatch", standalone_mode=False)
+        with terminations_as_interrupts():  # SIGTERM/SIGHUP roll a run back as Ctrl-C does
+            rv = cli.main(args=args, prog_name="hopmatch", standalone_mode=False)
         return rv if isinstance(rv, int) else 0
     except click.exceptions.Exit as exc:  # --help, --version
         return exc.exit_code
@@ -101,10 +102,11 @@ def main(argv=None) -> int:
             traceback.print_exc()
         click.echo(f"hopmatch: error: {err.where}: {one_line(err.problem)}", err=True)
         return err.status
-    except click.exceptions.Abort:
+    except (click.exceptions.Abort, KeyboardInterrupt) as exc:
         status.clear()
+        cause = exc if isinstance(exc, Terminated) else exc.__cause__ or exc.__context__
         click.echo("hopmatch: interrupted", err=True)
-        return 130
+        return 128 + cause.signum if isinstance(cause, Terminated) else 130
     except Exception as exc:  # a bug: one line unless --debug
         status.clear()
         if debug:

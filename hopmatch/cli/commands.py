@@ -323,7 +323,9 @@ def match(ctx, left, right, out, fundamental_file, fmt, no_draw, plot_energy, fi
         if importlib.util.find_spec("matplotlib") is None:
             raise CLIError("--plot-energy", "needs matplotlib: pip install hopmatch[all]")
     status("reading the images")
-    img_l, img_r = guard(None, labels, lambda: (read_image(left), read_image(right)))
+    pixels = detector.getMaxPixels()  # images over it are refused from their header
+    img_l, img_r = guard(None, labels, lambda: (read_image(left, pixels),
+                                                read_image(right, pixels)))
     if fundamental is None and img_l.shape[0] != img_r.shape[0]:
         raise CLIError(right, f"height {img_r.shape[0]} differs from the height of {left} "
                               f"({img_l.shape[0]}); LEFT and RIGHT must be a rectified pair "
@@ -404,7 +406,7 @@ def detect(ctx, image, out, no_draw, **params):
     labels = _labels(ctx, {"": image, "image": image, **param_labels(DericheMoravecDetector)})
     detector = guard(None, labels, lambda: DericheMoravecDetector(**given))
     status("reading the image")
-    img = guard(None, labels, lambda: read_image(image))
+    img = guard(None, labels, lambda: read_image(image, detector.getMaxPixels()))
     outputs = Outputs(out)
     _open(outputs, labels)
 

@@ -1,11 +1,18 @@
 """Input and output of the commands: images read with errors naming the file, the output
-folder staged so that a failed run leaves nothing behind, and run.json."""
+folder staged so that a run leaves either all of its files or none (whatever signal
+arrives), and run.json."""
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import json
 import os
 import platform
+import secrets
+import shutil
+import signal
+import threading
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -15,63 +22,179 @@ import numpy as np
 import hopmatch
 
 from .. import imageio
-from .._files import encode_image, write_temp
+from .._files import NAME_MAX, encode_image
+from .._validate import DEFAULT_MAX_PIXELS
 from .reporting import CLIError
 
-__all__ = ["Outputs", "image_info", "ms", "read_image", "run_json", "versions"]
+__all__ = ["Outputs", "Terminated", "image_info", "ms", "read_image", "run_json",
+           "signals_deferred", "terminations_as_interrupts", "versions"]
+
+#: The signals a run turns into :class:`Terminated` (SIGINT is Python's KeyboardInterrupt
+#: already) and that :func:`signals_deferred` holds back during the final renames.
+CAUGHT_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n))
 
 
-def read_image(path: str) -> np.ndarray:
-    """:func:`hopmatch.imageio.read_image`, its error as a :class:`CLIError`."""
+def read_image(path: str, max_pixels: int | None = DEFAULT_MAX_PIXELS) -> np.ndarray:
+    """:func:`hopmatch.imageio.read_image`, its error as a :class:`CLIError`: a named pipe
+    or device is refused before it is opened, an image of more than ``max_pixels`` pixels
+    (the ``--max-pixels`` option) from its header, before it is decoded."""
     try:
-        return imageio.read_image(path)
+        return imageio.read_image(path, max_pixels=max_pixels)
     except imageio.ImageReadError as exc:
-        raise CLIError(exc.path, exc.problem) from None
+        problem = exc.problem
+        if exc.kind == "too_many_pixels":
+            problem = problem.replace("max_pixels", "--max-pixels").replace(
+                " (None: no limit)", "")
+        raise CLIError(exc.path, problem) from None
+
+
+# --------------------------------------------------------------------------------------
+# Signals: SIGTERM/SIGHUP end a run as Ctrl-C does; the final renames are not interrupted
+# --------------------------------------------------------------------------------------
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP arrived: raised in the main thread, so that the run is rolled back
+    as after Ctrl-C (``signum`` says which signal; the exit status is 128 + signum)."""
+
+    def __init__(self, signum: int):
+        super().__init__(f"signal {signum}")
+        self.signum = signum
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated(signum)
+
+
+@contextlib.contextmanager
+def terminations_as_interrupts():
+    """While inside, SIGTERM and SIGHUP raise :class:`Terminated` (a KeyboardInterrupt) in
+    the main thread instead of ending the process at once, so that a run killed that way
+    removes its staged files. Outside the main thread (where handlers cannot be set) it
+    does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = {}
+    try:
+        for signum in CAUGHT_SIGNALS:
+            old[signum] = signal.signal(signum, _raise_terminated)
+        yield
+    finally:
+        for signum, handler in old.items():
+            signal.signal(signum, handler)
+
+
+@contextlib.contextmanager
+def signals_deferred():
+    """Hold SIGINT, SIGTERM and SIGHUP back while inside (main thread only): each one that
+    arrives is delivered again, to the handler of before, on the way out. For the few
+    renames that make a run's files appear together."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending: list[int] = []
+    old = {}
+    try:
+        for signum in (signal.SIGINT, *CAUGHT_SIGNALS):
+            old[signum] = signal.signal(signum, lambda n, f: pending.append(n))
+        yield
+    finally:
+        for signum, handler in old.items():
+            signal.signal(signum, handler)
+        for signum in dict.fromkeys(pending):
+            signal.raise_signal(signum)
+
+
+# --------------------------------------------------------------------------------------
+# The output folder
+# --------------------------------------------------------------------------------------
+
+
+def _too_long(path: Path) -> str | None:
+    for part in path.parts:
+        if len(os.fsencode(part)) > NAME_MAX:
+            return (f"the name {part[:40]!r}... is {len(os.fsencode(part))} bytes long, more "
+                    f"than the {NAME_MAX} a file system allows")
+    return None
 
 
 class Outputs:
-    """The output folder of one run: files are staged under temporary names, then renamed.
+    """The output folder of one run: all of its files appear, or none.
 
-    ``open()`` creates the folder (and missing parents) and checks it is writable;
-    ``add()`` writes a file under a hidden temporary name; ``commit()`` renames them all;
-    ``abort()`` removes the temporary files and the folders ``open()`` created (if empty).
+    ``open()`` checks the folder and makes a hidden staging folder: for a folder that does
+    not exist yet, beside it (missing parents are created), to be renamed into place in one
+    step; for an existing folder (reused), inside it. ``add()`` writes a file into the
+    staging folder. ``commit()`` makes them appear: one rename of the staging folder, or,
+    in a reused folder, the files this run replaces set aside (``run.json`` first), the new
+    ones moved in (``run.json`` last), the old ones removed, all rolled back on any
+    failure; SIGINT, SIGTERM and SIGHUP are held back meanwhile
+    (:func:`signals_deferred`). So a folder with a ``run.json`` holds every file that
+    ``run.json`` lists from that run, even after ``kill -9``. ``abort()`` removes the
+    staging folder and the parents ``open()`` created (if empty).
     """
 
     def __init__(self, folder: str):
         self.label = folder
         self.path = Path(folder)
         self.created: list[Path] = []
-        self.staged: list[tuple[Path, Path]] = []
         self.names: list[str] = []
+        self.stage: Path | None = None
+        self.fresh = False
 
     def open(self) -> None:
-        if self.path.exists() and not self.path.is_dir():
-            raise CLIError(self.label, "exists and is not a folder")
-        missing, q = [], self.path.absolute()
+        problem = _too_long(self.path.absolute())
+        if problem:
+            raise CLIError(self.label, f"cannot create the folder: {problem}")
+        try:
+            if self.path.exists() and not self.path.is_dir():
+                raise CLIError(self.label, "exists and is not a folder")
+            self.fresh = not self.path.is_dir()
+        except OSError as exc:
+            raise CLIError(self.label, f"cannot use the folder: {imageio.os_reason(exc)}") \
+                from None
+        parent = self.path.absolute().parent if self.fresh else self.path
+        if self.fresh:
+            self._make_parents(parent)
+        stem = self.path.absolute().name[:100]
+        self.stage = parent / f".{stem}.hopmatch-{secrets.token_hex(4)}.tmp"
+        try:
+            os.mkdir(self.stage, 0o777)  # the umask applies: the folder's mode once renamed
+        except OSError as exc:
+            self.stage = None
+            self.abort()
+            what = "create the folder" if self.fresh else "write in the folder"
+            raise CLIError(self.label, f"cannot {what}: {imageio.os_reason(exc)}") from None
+
+    def _make_parents(self, parent: Path) -> None:
+        missing, q = [], parent
         while not q.exists() and q.parent != q:
             missing.append(q)
             q = q.parent
+        if not q.is_dir():
+            raise CLIError(self.label, "cannot create the folder: a part of the path is a "
+                                       "file, not a folder")
         try:
-            self.path.mkdir(parents=True, exist_ok=True)
+            parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             self._remove_created(missing)
             raise CLIError(self.label,
                            f"cannot create the folder: {imageio.os_reason(exc)}") from None
         self.created = missing
-        try:
-            os.unlink(write_temp(self.path, "write-test", b""))
-        except OSError as exc:
-            self.abort()
-            raise CLIError(self.label,
-                           f"cannot write in the folder: {imageio.os_reason(exc)}") from None
 
     def add(self, name: str, data: bytes) -> None:
+        if self.stage is None:
+            raise CLIError(self.label, "the output folder is not open")
         try:
-            tmp = write_temp(self.path, name, data)
+            fd = os.open(self.stage / name, os.O_WRONLY | os.O_CREAT | os.O_EXCL
+                         | getattr(os, "O_BINARY", 0), 0o666)
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
         except OSError as exc:
             raise CLIError(str(self.path / name),
                            f"cannot write: {imageio.os_reason(exc)}") from None
-        self.staged.append((tmp, self.path / name))
         self.names.append(name)
 
     def add_text(self, name: str, text: str) -> None:
@@ -81,23 +204,58 @@ class Outputs:
         self.add(name, encode_image(image, Path(name).suffix))
 
     def commit(self) -> None:
-        done = []
+        with signals_deferred():
+            if self.fresh:
+                try:
+                    os.rename(self.stage, self.path)
+                except OSError as exc:
+                    if exc.errno not in (errno.ENOTEMPTY, errno.EEXIST) or \
+                            not self.path.is_dir():
+                        self.abort()
+                        raise CLIError(self.label, "cannot rename the finished files into "
+                                                   f"place: {imageio.os_reason(exc)}") from None
+                    # made meanwhile (by a parallel run...): move the files in one by one
+                else:
+                    self.stage, self.created = None, []
+                    return
+            self._move_in()
+
+    def _move_in(self) -> None:
+        for name in self.names:
+            final = self.path / name
+            if final.is_dir() and not final.is_symlink():
+                self.abort()
+                raise CLIError(str(final), "is a folder; move it away or choose another --out")
+        aside = self.stage / ".replaced"
+        replaced, placed = [], []
         try:
-            for tmp, final in self.staged:
-                os.replace(tmp, final)
-                done.append(final)
-        except OSError as exc:
-            for final in done:
-                _unlink(final)
+            os.mkdir(aside)
+            for name in sorted(self.names, key=lambda n: n != "run.json"):  # run.json first
+                if os.path.lexists(self.path / name):
+                    os.rename(self.path / name, aside / name)
+                    replaced.append(name)
+            for name in sorted(self.names, key=lambda n: n == "run.json"):  # run.json last
+                os.rename(self.stage / name, self.path / name)
+                placed.append(name)
+        except BaseException as exc:
+            for name in placed:
+                with contextlib.suppress(OSError):
+                    os.rename(self.path / name, self.stage / name)
+            for name in replaced:
+                with contextlib.suppress(OSError):
+                    os.rename(aside / name, self.path / name)
             self.abort()
-            raise CLIError(self.label, "cannot rename the finished files: "
-                                       f"{imageio.os_reason(exc)}") from None
-        self.staged = []
+            if isinstance(exc, OSError):
+                raise CLIError(self.label, "cannot rename the finished files: "
+                                           f"{imageio.os_reason(exc)}") from None
+            raise
+        shutil.rmtree(self.stage, ignore_errors=True)
+        self.stage, self.created = None, []
 
     def abort(self) -> None:
-        for tmp, _ in self.staged:
-            _unlink(tmp)
-        self.staged = []
+        if self.stage is not None:
+            shutil.rmtree(self.stage, ignore_errors=True)
+            self.stage = None
         self._remove_created(self.created)
         self.created = []
 
@@ -108,13 +266,6 @@ class Outputs:
                 folder.rmdir()
             except OSError:
                 break
-
-
-def _unlink(path: Path) -> None:
-    try:
-        os.unlink(path)
-    except OSError:
-        pass
 
 
 # --------------------------------------------------------------------------------------

@@ -26,6 +26,7 @@ from .readers import (
     read_mask,
     read_scene_disparity,
     read_scene_image,
+    read_text_file,
 )
 
 __all__ = [
@@ -335,9 +336,10 @@ def _read_meta(folder: Path) -> tuple[Path, dict]:
     if not folder.is_dir():
         raise InvalidArgumentError(f"scene folder {str(folder)!r} does not exist")
     existing_file(meta_path, "scene description (meta.json)")
+    text = read_text_file(meta_path, "scene description (meta.json)")
     try:
-        meta = json.loads(meta_path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        meta = json.loads(text)
+    except json.JSONDecodeError as exc:
         raise InvalidArgumentError(f"{str(meta_path)!r} is not valid JSON: {exc}") from None
     if not isinstance(meta, dict):
         raise InvalidArgumentError(
@@ -364,9 +366,10 @@ def _read_dmin(path: Path) -> float | None:
     """The number a Middlebury 2005 ``dmin.txt`` holds, or None when there is none."""
     if not path.is_file():
         return None
+    text = read_text_file(path, "disparity offset (dmin.txt)")
     try:
-        return float(path.read_text().split()[0])
-    except (ValueError, IndexError, UnicodeDecodeError):
+        return float(text.split()[0])
+    except (ValueError, IndexError):
         raise InvalidArgumentError(
             f"{str(path)!r} must hold one number (the disparity offset)"
         ) from None

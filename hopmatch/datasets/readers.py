@@ -29,6 +29,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from .._files import (
+    MAX_FILE_BYTES,
+    MAX_TEXT_BYTES,
+    FileReadError,
+    check_input_file,
+    read_input_bytes,
+    read_input_text,
+)
 from .._validate import as_real, describe
 from ..errors import InvalidArgumentError, InvalidTypeError
 from ..imageio import ImageReadError, read_image
@@ -45,6 +53,7 @@ __all__ = [
     "read_pfm",
     "read_scene_disparity",
     "read_scene_image",
+    "read_text_file",
 ]
 
 
@@ -63,18 +72,54 @@ def as_path(path, name: str = "path") -> Path:
     raise InvalidTypeError(f"`{name}` must be a str or pathlib.Path, got {describe(path)}")
 
 
-def existing_file(path, what: str) -> Path:
-    """``path`` as a :class:`pathlib.Path` naming an existing regular file.
+def existing_file(path, what: str, max_bytes: int | None = None) -> Path:
+    """``path`` as a :class:`pathlib.Path` naming an existing regular file (of at most
+    ``max_bytes`` bytes when given), checked without opening it
+    (:func:`hopmatch._files.check_input_file`).
 
-    Raises :class:`InvalidArgumentError` ``"<what> file '<path>' does not exist"`` or
-    ``"<what> path '<path>' is not a file"`` otherwise.
+    Raises :class:`InvalidArgumentError` ``"<what> file '<path>' does not exist"``,
+    ``"<what> path '<path>' is not a file"`` (a folder), ``"<what> path '<path>' is a named
+    pipe (FIFO), not a regular file..."`` (pipes, devices, sockets), or says why the system
+    refused it or that it is too large.
     """
     p = as_path(path)
-    if not p.exists():
-        raise InvalidArgumentError(f"{what} file {str(p)!r} does not exist")
-    if not p.is_file():
-        raise InvalidArgumentError(f"{what} path {str(p)!r} is not a file")
+    try:
+        check_input_file(p, max_bytes)
+    except FileReadError as exc:
+        raise _file_error(p, what, exc) from None
     return p
+
+
+def _file_error(p: Path, what: str, exc: FileReadError) -> InvalidArgumentError:
+    """A :class:`FileReadError` worded as the readers word their errors."""
+    if exc.kind == "missing" and exc.problem == "no such file":
+        return InvalidArgumentError(f"{what} file {str(p)!r} does not exist")
+    if exc.kind == "folder":
+        return InvalidArgumentError(f"{what} path {str(p)!r} is not a file")
+    if exc.kind == "special":
+        return InvalidArgumentError(f"{what} path {str(p)!r} {exc.problem}")
+    return InvalidArgumentError(f"{what} file {str(p)!r}: {exc.problem}")
+
+
+def _read_bytes(path, what: str) -> bytes:
+    p = as_path(path)
+    try:
+        return read_input_bytes(p, MAX_FILE_BYTES)
+    except FileReadError as exc:
+        raise _file_error(p, what, exc) from None
+
+
+def read_text_file(path, what: str) -> str:
+    """The text of a small file (at most ``MAX_TEXT_BYTES``, 64 MiB), checked as
+    :func:`existing_file` checks it; errors name ``what`` and the file, a binary file
+    included."""
+    p = as_path(path)
+    try:
+        return read_input_text(p, MAX_TEXT_BYTES)
+    except FileReadError as exc:
+        raise _file_error(p, what, exc) from None
+    except UnicodeDecodeError:
+        raise InvalidArgumentError(f"{what} file {str(p)!r} is not a text file") from None
 
 
 def _decode(path, flags: int, what: str) -> np.ndarray:
@@ -84,7 +129,7 @@ def _decode(path, flags: int, what: str) -> np.ndarray:
     try:
         return read_image(p, flags)
     except ImageReadError as exc:
-        if exc.kind == "unreadable":
+        if exc.kind in ("unreadable", "too_large", "too_many_pixels"):
             raise InvalidArgumentError(f"{what} file {str(p)!r}: {exc.problem}") from None
         if exc.kind in ("empty", "undecodable"):
             raise InvalidArgumentError(
@@ -247,8 +292,8 @@ def read_pfm(path) -> np.ndarray:
     array([[ 1.,  2.],
            [ 3., nan]], dtype=float32)
     """
-    p = existing_file(path, "PFM")
-    blob = p.read_bytes()
+    p = existing_file(path, "PFM", MAX_FILE_BYTES)
+    blob = _read_bytes(p, "PFM")
     m = _PFM_HEADER.match(blob)
     if m is None:
         raise InvalidArgumentError(
@@ -424,13 +469,8 @@ def read_middlebury_calib(path) -> dict:
     >>> c["cam1"][0, 2], c["doffs"], c["focal_length"], c["ndisp"]
     (np.float64(7.0), 2.0, 10.0, 16.0)
     """
-    p = existing_file(path, "Middlebury calibration")
-    try:
-        text = p.read_text()
-    except UnicodeDecodeError:
-        raise InvalidArgumentError(
-            f"Middlebury calibration file {str(p)!r} is not a text file"
-        ) from None
+    p = existing_file(path, "Middlebury calibration", MAX_TEXT_BYTES)
+    text = read_text_file(p, "Middlebury calibration")
     calib: dict = {}
     for lineno, line in enumerate(text.splitlines(), 1):
         line = line.strip()
@@ -506,13 +546,8 @@ def read_kitti_calib(path) -> dict:
     >>> c["P1"].shape, c["focal_length"], c["baseline"]
     ((3, 4), 100.0, 0.5)
     """
-    p = existing_file(path, "KITTI calibration")
-    try:
-        text = p.read_text()
-    except UnicodeDecodeError:
-        raise InvalidArgumentError(
-            f"KITTI calibration file {str(p)!r} is not a text file"
-        ) from None
+    p = existing_file(path, "KITTI calibration", MAX_TEXT_BYTES)
+    text = read_text_file(p, "KITTI calibration")
     calib: dict = {}
     for lineno, line in enumerate(text.splitlines(), 1):
         line = line.strip()
@@ -571,11 +606,8 @@ def read_calibration(path) -> dict:
     InvalidArgumentError
         Missing or binary file, neither format, or as the reader of its format does.
     """
-    p = existing_file(path, "calibration")
-    try:
-        head = p.read_text()[:4096]
-    except UnicodeDecodeError:
-        raise InvalidArgumentError(f"calibration file {str(p)!r} is not a text file") from None
+    p = existing_file(path, "calibration", MAX_TEXT_BYTES)
+    head = read_text_file(p, "calibration")[:4096]
     if re.search(r"^\s*P0\s*:", head, re.M):
         return read_kitti_calib(p)
     if re.search(r"^\s*cam0\s*=", head, re.M):

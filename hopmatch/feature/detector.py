@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 
 from .._params import Configurable, Param, boolean, choice, integer, real
-from .._validate import as_gray_image, as_mask, as_points
+from .._validate import DEFAULT_MAX_PIXELS, as_gray_image, as_mask, as_points
 from ..errors import InvalidArgumentError, InvalidTypeError
 from .descriptor import gradient_windows, window_inside
 from .gradient import feature_image
@@ -96,7 +96,7 @@ class DericheMoravecDetector(Configurable):
         Param("max_features", 0, integer(0)),
         Param("subpixel", True, boolean()),
         Param("descriptor_size", 9, integer(1, 99, odd=True)),
-        Param("max_pixels", 50_000_000, integer(1)),
+        Param("max_pixels", DEFAULT_MAX_PIXELS, integer(1)),
     )
 
     PRESETS = {

@@ -87,7 +87,8 @@ def border_width(alpha: float) -> int:
     the detector's threshold of 1e-3. The filter's cost grows with the padded area, so the
     border is no wider than that (docs/performance.md).
     """
-    return min(int(math.ceil(BORDER_DECAY / alpha)), 256)
+    width = BORDER_DECAY / alpha  # inf for a denormal alpha: capped before the conversion
+    return int(math.ceil(width)) if width < 256 else 256
 
 
 def feature_image(gray: np.ndarray, on: str, alpha: float, omega: float,

@@ -8,6 +8,12 @@ from .._kernels import candidates as _kc
 from ..errors import BudgetExceededError
 from .similarity import EPS
 
+#: Bounds of the search window in pixels: validated points lie within +-2**20
+#: (``MAX_COORDINATE``), so a band or disparity bound beyond +-2**22 holds every pair
+#: already; larger ones (``max_vertical=1e19``, beyond int64 once in rows, or 1e39, inf
+#: in float32) are clamped to it, which keeps the same pairs.
+BAND_LIMIT = float(2**22)
+
 
 def row_span_limit(n: int) -> int:
     """Largest row span the candidate search counts rows over for n points (beyond it, it
@@ -42,11 +48,14 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
     (in the order the search visited them): sort what is left after gating with
     ``_kc.group_by_left`` (which can gate them) then ``_kc.sort_groups``, which is cheaper.
 
+    Bounds beyond :data:`BAND_LIMIT` are clamped to it (the same pairs).
+
     ``contrast_gate=(contrasts, gate)`` (rectified search only; ``contrasts`` from
     :func:`window_contrasts`) leaves out the pairs :func:`similarity_distance` would put past
     ``gate`` on their contrasts alone; the budget still counts them.
     """
-    band = (np.float32(min_disparity), np.float32(max_disparity), np.float32(max_vertical))
+    band = (np.float32(max(min_disparity, -BAND_LIMIT)), np.float32(min(max_disparity, BAND_LIMIT)),
+            np.float32(min(max_vertical, BAND_LIMIT)))
     budget = np.int64(min(max_neurons, 2**62))
     if fundamental is None:
         index = right_band_index(right)
@@ -65,9 +74,10 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
             np.ascontiguousarray(fundamental, dtype=np.float64), *band, budget)
     if n > max_neurons:
         raise BudgetExceededError(
-            f"the network would have {n} neurons (candidate pairs), more than max_neurons="
-            f"{max_neurons}; narrow the disparity range (min_disparity/max_disparity) or "
-            "max_vertical, use fewer keypoints, or raise max_neurons", argument="max_neurons"
+            f"the network would have {n} neurons (candidate pairs) or more (counted until "
+            f"past the budget), more than max_neurons={max_neurons}; narrow the disparity "
+            "range (min_disparity/max_disparity) or max_vertical, use fewer keypoints, or "
+            "raise max_neurons", argument="max_neurons"
         )
     if sort:
         ni, nk, _ = _kc.group_by_left(ni, nk, np.empty(len(ni)), len(left), False, 0.0)

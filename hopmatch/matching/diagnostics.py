@@ -9,12 +9,13 @@ from .._warnings import warn
 from ..errors import (
     BudgetExceededError,
     DisparityRangeWarning,
+    FewMatchesWarning,
     HopmatchWarning,
     ImageSizeWarning,
     UnrectifiedPairWarning,
 )
 from .candidates import candidate_pairs
-from .similarity import similarity_distance
+from .similarity import similarity_distance, window_contrasts
 
 # Rectification check (docs/robustness.md): how many left points are sampled, the band
 # searched around them, and when the pair is called unrectified.
@@ -50,6 +51,16 @@ class NotStereoPairWarning(HopmatchWarning):
     """The two images do not look like two views of one scene: almost no left point has a
     look-alike anywhere near its row in the right image (see
     :func:`stereo_pair_evidence`)."""
+
+
+# Few matches (docs/robustness.md): a pair with at least FEW_MATCHES_MIN_POINTS keypoints a
+# side that keeps fewer than max(FEW_MATCHES_FLOOR, FEW_MATCHES_FRACTION of them) matches
+# is warned about (the 13 shared scenes keep 4.5 % to 48 %), with its likely cause;
+# windows whose median contrasts differ by more than FEW_MATCHES_CONTRAST are one.
+FEW_MATCHES_MIN_POINTS = 50
+FEW_MATCHES_FLOOR = 5
+FEW_MATCHES_FRACTION = 0.01
+FEW_MATCHES_CONTRAST = 1.5
 
 
 def rectification_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity, max_vertical):
@@ -182,3 +193,59 @@ def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config) ->
              "cv2.findHomography instead", NotStereoPairWarning)
         return True
     return False
+
+
+def contrast_ratio(qd, td) -> float | None:
+    """Median window contrast (``mean |row|``, eq. 7's normaliser) of the right
+    descriptors over that of the left ones; None for binary descriptors or empty sides."""
+    if not len(qd) or not len(td):
+        return None
+    contrasts = window_contrasts(qd, td)
+    if contrasts is None:
+        return None
+    left, right = (float(np.median(c)) for c in contrasts)
+    if not left > 0 or not right > 0:
+        return None
+    return right / left
+
+
+def few_matches_cause(result, qd, td, config) -> str:
+    """The likely reason why the network ``result`` kept almost no match, in words."""
+    ratio = contrast_ratio(qd, td)
+    if ratio is not None and not 1 / FEW_MATCHES_CONTRAST <= ratio <= FEW_MATCHES_CONTRAST:
+        return (f"the right image's windows have {ratio:.3g} times the contrast of the left "
+                "image's (medians): the two images differ in gain or exposure, or in dtype "
+                "(uint8 against uint16, or floats in [0, 1]), and the similarity gate "
+                "(similarity_gate) rejects their true matches; give both images the same "
+                "scale first (e.g. convert both to uint8 with cv2.normalize)")
+    if not len(result.neuron_left):
+        return (f"no candidate pair lies in the search window (disparity in "
+                f"[{config.min_disparity:g}, {config.max_disparity:g}], |dy| <= "
+                f"{config.max_vertical:g}) with similar enough windows: check the disparity "
+                "range (min_disparity/max_disparity), that the left image comes first, and "
+                "that the pair is rectified")
+    if result.n_interactions == 0:
+        return (f"no candidate has a neighbour within neighbour_width x neighbour_height "
+                f"({config.neighbour_width:g} x {config.neighbour_height:g} px), so nothing "
+                "supports any match; widen the neighbourhood")
+    if not result.state.any():
+        return ("the network kept no neuron active (input_bias, slope, theta or "
+                "uniqueness_weight leave no match enough support); try the defaults")
+    return ("the candidates support each other too little: the images may not show the same "
+            "scene, the disparity range may miss the true disparities "
+            f"([{config.min_disparity:g}, {config.max_disparity:g}]), or the pair may be "
+            "misaligned")
+
+
+def warn_if_few_matches(result, q_pts, t_pts, qd, td, config) -> bool:
+    """Warn (:class:`~hopmatch.errors.FewMatchesWarning`) when a pair of at least
+    :data:`FEW_MATCHES_MIN_POINTS` keypoints a side kept fewer than
+    ``max(FEW_MATCHES_FLOOR, FEW_MATCHES_FRACTION * keypoints)`` matches, saying the
+    likely cause (:func:`few_matches_cause`). Returns whether it warned."""
+    n = min(len(q_pts), len(t_pts))
+    kept = len(result.query_idx)
+    if n < FEW_MATCHES_MIN_POINTS or kept >= max(FEW_MATCHES_FLOOR, FEW_MATCHES_FRACTION * n):
+        return False
+    warn(f"only {kept} matches for {len(q_pts)} left and {len(t_pts)} right keypoints: "
+         f"{few_matches_cause(result, qd, td, config)}", FewMatchesWarning)
+    return True

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import copy
+import threading
 
 import cv2
 import numpy as np
@@ -18,7 +19,12 @@ from .._validate import (
     as_int,
 )
 from .._warnings import warn
-from ..errors import InvalidArgumentError, InvalidTypeError, PairInfoError
+from ..errors import (
+    ConcurrentPairInfoError,
+    InvalidArgumentError,
+    InvalidTypeError,
+    PairInfoError,
+)
 from .budget import (  # noqa: E402, F401
     MAX_ENERGY_TRACE,
     neighbour_pairs_bound,
@@ -84,6 +90,11 @@ class HopfieldMatcher(Configurable):
     of them calls ``setPairInfo``, ``setFundamentalMatrix`` or a parameter setter
     meanwhile; ``getLastResult()`` is then the result of whichever call finished last.
     Give each thread its own matcher (``clone()``) to match different pairs concurrently.
+    Misuse is detected rather than answered with another pair's matches: every change of
+    the pair information counts a generation, and a match raises
+    :class:`~hopmatch.errors.ConcurrentPairInfoError` when the pair it would use was set
+    by another thread after this thread's own ``setPairInfo``, or when the generation
+    changed while it ran.
 
     Examples
     --------
@@ -108,9 +119,41 @@ class HopfieldMatcher(Configurable):
 
     def __init__(self, **params):
         self._init_params(params)
+        self._init_pair_state()
+        self._last: NetworkResult | None = None
+
+    def _init_pair_state(self) -> None:
+        """No pair information; generation 0 (see :meth:`_set_pair_state`)."""
         self._pair = None
         self._fundamental = None
-        self._last: NetworkResult | None = None
+        self._pair_lock = threading.Lock()
+        self._generation = 0
+        self._set_here = threading.local()  # .generation: what this thread's last set made
+
+    def _set_pair_state(self, **fields) -> None:
+        """Change the pair information (``_pair``, ``_fundamental``) as one step: a new
+        generation, remembered as this thread's own."""
+        with self._pair_lock:
+            for key, value in fields.items():
+                setattr(self, key, value)
+            self._generation += 1
+            self._set_here.generation = self._generation
+
+    def _pair_state(self):
+        """``(pair, fundamental, generation)`` read together; raises
+        :class:`ConcurrentPairInfoError` when this thread set the pair information and
+        another thread has replaced it since."""
+        with self._pair_lock:
+            pair, fundamental, generation = self._pair, self._fundamental, self._generation
+        mine = getattr(self._set_here, "generation", None)
+        if mine is not None and mine != generation:
+            raise ConcurrentPairInfoError(
+                "another thread replaced the pair information this thread gave with "
+                "setPairInfo/setFundamentalMatrix, so these descriptors would be matched "
+                "against its keypoints; HopfieldMatcher is not safe for concurrent "
+                "setPairInfo: give each thread its own matcher "
+                "(matcher.clone(emptyTrainData=True))")
+        return pair, fundamental, generation
 
     # -- pair information (as LightGlueMatcher) ----------------------------------------
     def setPairInfo(self, queryKpts, trainKpts, queryImageSize=None,  # noqa: N802, N803
@@ -124,19 +167,19 @@ class HopfieldMatcher(Configurable):
         queryImageSize, trainImageSize : (width, height), optional
             Image sizes, as cv2 gives them; used for the default disparity range.
         """
-        self._pair = PairInfo.of(queryKpts, trainKpts, queryImageSize, trainImageSize)
+        self._set_pair_state(_pair=PairInfo.of(queryKpts, trainKpts, queryImageSize,
+                                               trainImageSize))
 
     def clearPairInfo(self) -> None:  # noqa: N802
         """Forget the pair information (keypoints, image sizes and fundamental matrix)."""
-        self._pair = None
-        self._fundamental = None
+        self._set_pair_state(_pair=None, _fundamental=None)
 
     def setFundamentalMatrix(self, F) -> None:  # noqa: N802, N803
         """Match an unrectified pair: candidates lie within ``max_vertical`` pixels of the
         left point's epipolar line ``F (x, y, 1)`` instead of a horizontal band, and the
         disambiguation measures offsets from that line. ``F`` is 3 x 3 as returned by
         ``cv2.findFundamentalMat`` (``x_r^T F x_l = 0``); None returns to rectified mode."""
-        self._fundamental = as_fundamental_matrix(F, optional=True)
+        self._set_pair_state(_fundamental=as_fundamental_matrix(F, optional=True))
 
     def estimateFundamentalMatrix(self, queryDescriptors,  # noqa: N802, N803
                                   trainDescriptors) -> EpipolarGeometry:  # noqa: N803
@@ -215,8 +258,9 @@ class HopfieldMatcher(Configurable):
     def _run(self, queryDescriptors, trainDescriptors, mask=None,  # noqa: N803
              record_energy: bool = False):
         """:meth:`run`, also returning the pair information it used (read once, so that a
-        concurrent ``setPairInfo`` cannot mix two pairs in one call)."""
-        pair, fundamental = self._pair, self._fundamental
+        concurrent ``setPairInfo`` cannot mix two pairs in one call, and checked again at
+        the end: :class:`ConcurrentPairInfoError` if it changed meanwhile)."""
+        pair, fundamental, generation = self._pair_state()
         if pair is None:
             raise PairInfoError(
                 "no pair information: call setPairInfo(queryKpts, trainKpts, queryImageSize, "
@@ -224,6 +268,12 @@ class HopfieldMatcher(Configurable):
             )
         result = match_pair(pair, queryDescriptors, trainDescriptors, self.config(),
                             mask=mask, fundamental=fundamental, record_energy=record_energy)
+        if self._generation != generation:
+            raise ConcurrentPairInfoError(
+                "the pair information changed while this match ran (setPairInfo, "
+                "setFundamentalMatrix or clearPairInfo from another thread); its matches "
+                "may not be of the keypoints the caller meant, so none are returned: give "
+                "each thread its own matcher (matcher.clone(emptyTrainData=True))")
         self._last = result
         return result, pair
 
@@ -320,6 +370,7 @@ class HopfieldMatcher(Configurable):
         if not emptyTrainData and self._pair is not None:
             other._pair = copy.deepcopy(self._pair)
             other._fundamental = self.getFundamentalMatrix()
+            other._generation = 1
         return other
 
     def __getstate__(self):
@@ -327,6 +378,5 @@ class HopfieldMatcher(Configurable):
 
     def __setstate__(self, state):
         self._init_params(state_params(self, state))
-        self._pair = None
-        self._fundamental = None
+        self._init_pair_state()
         self._last = None

@@ -38,7 +38,7 @@ from .candidates import (  # noqa: E402, F401
     right_band_index,
     vertical_offsets,
 )
-from .diagnostics import warn_geometry, warn_if_unrectified
+from .diagnostics import warn_geometry, warn_if_few_matches, warn_if_unrectified
 from .disambiguate import disambiguate, vertically_consistent
 from .disparity_range import resolve_disparity_range, run_in_range, warn_fallback
 from .params import MatcherConfig, check_disparity_order, matcher_config
@@ -259,11 +259,14 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     result, config = run_in_range(run_hopfield_network, found, config, q_pts, t_pts, qd, td,
                                   mask=mask, record_energy=record_energy,
                                   fundamental=fundamental)
-    # one warning for one cause: a pair that is not a stereo pair (or not rectified) also
-    # defeats the range search, and the diagnosis says more than the fallback would
+    # one warning for one cause: a pair diagnosed as not rectified or not a stereo pair
+    # also defeats the range search, and the diagnosis says more than the others would
     if not warn_if_unrectified(len(result.query_idx), q_pts, t_pts, qd, td, fundamental,
                                config):
-        warn_fallback(found, len(result.query_idx))
+        if found.source == "fallback" and len(result.query_idx) == 0:
+            warn_fallback(found, len(result.query_idx))
+        else:
+            warn_if_few_matches(result, q_pts, t_pts, qd, td, config)
     return result
 
 

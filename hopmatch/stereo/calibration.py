@@ -14,7 +14,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .._files import atomic_path
+from .._files import MAX_TEXT_BYTES, FileReadError, atomic_path, check_input_file
 from .._validate import as_image_size, as_matrix, cv2_call, describe
 from ..errors import InvalidArgumentError, InvalidTypeError
 from .checks import (
@@ -349,8 +349,14 @@ def _read_node(node, what: str):
 
 def _read_storage(path: Path, name: str) -> tuple[dict, dict, list[str]]:
     """The calibration values found in one FileStorage file, their spellings, its keys."""
-    if not path.is_file():
-        raise InvalidArgumentError(f"`{name}`: no such file {str(path)!r}")
+    try:
+        check_input_file(path, MAX_TEXT_BYTES, argument=name)
+    except FileReadError as exc:
+        if exc.problem == "no such file":
+            raise InvalidArgumentError(f"`{name}`: no such file {str(path)!r}",
+                                       argument=name) from None
+        raise InvalidArgumentError(f"`{name}`: {str(path)!r} {exc.problem}",
+                                   argument=name) from None
     if path.stat().st_size == 0:
         raise InvalidArgumentError(f"`{name}`: {str(path)!r} is empty")
     try:

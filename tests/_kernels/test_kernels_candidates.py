@@ -3,6 +3,8 @@ window) against the brute-force pairs of ``tests/naive.py``."""
 
 from __future__ import annotations
 
+import os
+
 import naive
 import numpy as np
 import pytest
@@ -209,3 +211,38 @@ class TestCandidates:
         assert len(candidate_pairs(left, right, 0.0, 15.0, 3.0, n)[0]) == n
         with pytest.raises(BudgetExceededError):
             candidate_pairs(left, right, 0.0, 15.0, 3.0, n - 1)
+
+
+class TestCountStopsAtTheBudget:
+    """Issue 20: past max_neurons the band was still counted to its end (300,000 points
+    against 300,000: 9e10 pairs); the count now stops at the first row past the budget."""
+
+    @pytest.mark.skipif(os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0"),
+                        reason="a time limit for the compiled kernels")
+    def test_band_and_epipolar_refuse_within_a_second(self):
+        import time
+
+        grid = np.stack(np.meshgrid(np.arange(600), np.arange(500)), -1).reshape(-1, 2)
+        left = grid.astype(np.float32)
+        right = np.full_like(left, 300.0)
+        f = np.array([[0, 0, 0], [0, 0, -1], [0, 1, 0]], np.float64)
+        for fundamental in (None, f):
+            candidate_pairs(left[:10], right[:10], -1000, 1000, 1000, 10**6, fundamental)
+            t0 = time.perf_counter()
+            with pytest.raises(BudgetExceededError, match="more than max_neurons=5000000"):
+                candidate_pairs(left, right, -1000.0, 1000.0, 1000.0, 5_000_000, fundamental)
+            assert time.perf_counter() - t0 < 1.0
+
+    def test_huge_bounds_keep_every_pair(self):
+        """max_vertical of 1e19 (beyond int64 once turned into rows) or 3.5e38 (inf in
+        float32) gave no candidate; bounds past 2**22 are clamped: the same pairs as a
+        band holding every point."""
+        rng = np.random.default_rng(0)
+        left = rng.uniform(0, 100, (30, 2)).astype(np.float32)
+        right = rng.uniform(0, 100, (40, 2)).astype(np.float32)
+        want = candidate_pairs(left, right, -200.0, 200.0, 200.0, 10**6)
+        assert len(want[0]) == 30 * 40
+        for vmax in (1e19, 3.5e38, 1e300):
+            for lo, hi in ((-200.0, 200.0), (-1e300, 1e300)):
+                got = candidate_pairs(left, right, lo, hi, vmax, 10**6)
+                assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])

@@ -3,6 +3,8 @@ dense network of ``tests/naive.py``: the stored pairs, their weights, their coun
 
 from __future__ import annotations
 
+import os
+
 import naive
 import numpy as np
 import pytest
@@ -114,3 +116,40 @@ def test_compatibility_equals_reference():
             assert -1.0 <= got <= 1.0  # rounds to the limits far from theta
             assert got == pytest.approx(naive.compatibility(x, theta, slope), rel=0, abs=1e-15)
         assert _k.compatibility(theta, theta, slope) == 0.0
+
+
+class TestCountStopsAtTheLimit:
+    """Issue 20: the exact count behind the max_interactions refusal went on to the end
+    (1,500 identical points: hours); with a limit it stops as soon as it passes it."""
+
+    @pytest.mark.parametrize("seed,n", PROBLEMS)
+    def test_limit(self, seed, n):
+        p = params(**CONFIGS["default"])
+        net = kernel_network(*make_problem(seed, n), p)
+        args = (net["ni"], net["nk"], net["start"], net["nb_off"], net["nb_idx"])
+        exact = _k.count_interactions(*args)
+        assert _k.count_interactions(*args, -1) == exact
+        for limit in (exact, exact + 1, 10**18):
+            assert _k.count_interactions(*args, limit) == exact  # within it: exact
+        for limit in (0, exact // 2, exact - 1):
+            if limit < exact:
+                got = _k.count_interactions(*args, limit)
+                assert limit < got <= exact  # past it: stopped, above the limit
+
+    @pytest.mark.skipif(os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0"),
+                        reason="a time limit for the compiled kernels")
+    def test_crowded_points_are_refused_within_a_second(self):
+        import time
+
+        import hopmatch
+        from hopmatch.errors import BudgetExceededError
+
+        pts = np.full((1500, 2), 100.0, np.float32)
+        desc = np.tile(np.random.default_rng(0).normal(size=(1, 25)), (1500, 1)).astype(
+            np.float32)
+        hopmatch.hopfield_match(pts[:50], pts[:50] - [10, 0], desc[:50], desc[:50],
+                                max_disparity=20)  # compiled and cached before timing
+        t0 = time.perf_counter()
+        with pytest.raises(BudgetExceededError, match="max_interactions=100000000") as exc:
+            hopmatch.hopfield_match(pts, pts - [10, 0], desc, desc, max_disparity=20)
+        assert time.perf_counter() - t0 < 1.0 and exc.value.argument == "max_interactions"

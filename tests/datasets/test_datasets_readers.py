@@ -4,13 +4,14 @@ malformed and missing files."""
 from __future__ import annotations
 
 import errno
-import pathlib
+import os
 
 import cv2
 import numpy as np
 import pytest
 from dataset_files import KITTI_CALIB, MIDDLEBURY_CALIB, write_pfm
 
+import hopmatch._files
 from hopmatch.datasets import (
     read_kitti_calib,
     read_kitti_disparity,
@@ -374,10 +375,14 @@ class TestSceneFiles:
         path = tmp_path / "d.png"
         cv2.imwrite(str(path), np.array([[0, 8]], np.uint8))
 
-        def refuse(self):
-            raise PermissionError(errno.EACCES, "Permission denied", str(self))
+        real_open = os.open
 
-        monkeypatch.setattr(pathlib.Path, "read_bytes", refuse)
+        def refuse(name, flags, *args):  # as for a file of another user (the tests run as root)
+            if os.fspath(name) == str(path):
+                raise PermissionError(errno.EACCES, "Permission denied", str(name))
+            return real_open(name, flags, *args)
+
+        monkeypatch.setattr(hopmatch._files.os, "open", refuse)
         with pytest.raises(InvalidArgumentError, match=r"Middlebury disparity file .*d\.png': "
                                                        r"cannot read the file: permission denied"):
             read_middlebury_disparity(path, scale=8)

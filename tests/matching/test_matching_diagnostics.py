@@ -181,3 +181,66 @@ def test_raw_chessboard_photos_are_a_stereo_pair(shared_data):
         right = cv2.imread(str(folder / f"right{n}.jpg"), cv2.IMREAD_GRAYSCALE)
         _, caught = _caught(lambda a=left, b=right: hopmatch.match_stereo(a, b))
         assert NotStereoPairWarning not in [w.category for w in caught]
+
+
+# -- issue 20: no or almost no matches is warned about, with its likely cause ----------------
+
+
+def _noise(seed=0, shape=(200, 260)):
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    img = cv2.GaussianBlur(rng.uniform(0, 255, shape).astype(np.float32), (0, 0), 1.5)
+    return cv2.normalize(img, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
+
+
+def _few(call):
+    from hopmatch.errors import FewMatchesWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = call()
+    hits = [str(w.message) for w in caught if issubclass(w.category, FewMatchesWarning)]
+    return res, hits
+
+
+def test_few_matches_warns_for_an_unrelated_pair():
+    left, right = _noise(), _noise(9)
+    res, hits = _few(lambda: hopmatch.match_stereo(left, right, max_disparity=16))
+    assert len(res.matches) < 5 and len(hits) == 1
+    assert "no candidate pair lies in the search window" in hits[0]
+    assert hits[0].startswith(f"only {len(res.matches)} matches for ")
+
+
+def test_few_matches_names_a_gain_mismatch():
+    left = _noise()
+    right = np.roll(left, -6, axis=1)
+    res, hits = _few(lambda: hopmatch.hopfield_match(*_features(left, right), max_disparity=16))
+    assert hits == [] and len(res.query_idx) > 100  # a good pair: silent
+    pts_l, pts_r, d_l, d_r = _features(left, right)
+    res, hits = _few(lambda: hopmatch.hopfield_match(pts_l, pts_r, d_l, d_r * 0.3,
+                                                     max_disparity=16))
+    assert len(res.query_idx) < 5 and len(hits) == 1
+    assert "0.302 times the contrast" in hits[0] and "gain or exposure" in hits[0]
+
+
+def test_few_matches_other_causes():
+    left = _noise()
+    pts_l, pts_r, d_l, d_r = _features(left, np.roll(left, -6, axis=1))
+    for params, words in [({"neighbour_width": 0, "neighbour_height": 0}, "no candidate has a "
+                           "neighbour"), ({"input_bias": -1e300}, "kept no neuron active"),
+                          ({"min_disparity": 20, "max_disparity": 40}, "search window")]:
+        res, hits = _few(lambda: hopmatch.hopfield_match(pts_l, pts_r, d_l, d_r, **params))
+        assert len(hits) == 1 and words in hits[0], (params, hits)
+    # too few keypoints to judge: silent
+    res, hits = _few(lambda: hopmatch.hopfield_match(pts_l[:40], pts_r[:40], d_l[:40],
+                                                     d_r[:40], min_disparity=20,
+                                                     max_disparity=40))
+    assert hits == []
+
+
+def _features(left, right):
+    det = hopmatch.DericheMoravecDetector()
+    pl, _, dl, _ = det.detect_and_describe(left)
+    pr, _, dr, _ = det.detect_and_describe(right)
+    return pl, pr, dl, dr

@@ -304,3 +304,92 @@ def test_fundamental_matrix_validation():
         m.setFundamentalMatrix("F")
     with pytest.raises(InvalidArgumentError, match="finite"):
         m.setFundamentalMatrix(np.full((3, 3), np.nan))
+
+
+# -- issue 20: shared-instance misuse raises instead of matching another thread's pair -------
+
+
+def test_concurrent_set_pair_info_raises_rather_than_mixing_pairs():
+    """32 threads each setting their own pair on one matcher: 12 of 32 calls silently
+    matched another thread's keypoints before issue 20. Now every call either matches
+    its own pair or raises ConcurrentPairInfoError."""
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+
+    from hopmatch.errors import ConcurrentPairInfoError
+
+    m = HopfieldMatcher(max_disparity=20)
+    rng = np.random.default_rng(0)
+    jobs = []
+    for t in range(32):
+        p = rng.uniform(20, 200, (150, 2)).astype(np.float32)
+        jobs.append((p, p - np.float32([3 + t % 10, 0]), rng.normal(size=(150, 25)).astype(
+            np.float32)))
+    barrier = threading.Barrier(8)
+
+    def one(job):
+        p, q, d = job
+        try:
+            barrier.wait(timeout=10)
+        except threading.BrokenBarrierError:
+            pass
+        try:
+            m.setPairInfo(p, q)
+            time.sleep(0.002)
+            res = m.match(d, d)
+        except ConcurrentPairInfoError:
+            return "refused"
+        own = len(res) > 50 and all(x.queryIdx == x.trainIdx for x in res)
+        return "own" if own else "wrong"
+
+    with ThreadPoolExecutor(8) as ex:
+        out = list(ex.map(one, jobs))
+    assert out.count("wrong") == 0, out
+    assert out.count("refused") > 0  # the misuse was seen
+
+
+def test_pair_changed_during_a_match_is_detected(monkeypatch):
+    """A setPairInfo from another thread while a match runs (the generation read at the
+    start and at the end differ) raises; a match in a thread that never set the pair
+    (the documented sharing) works."""
+    from hopmatch.errors import ConcurrentPairInfoError
+    from hopmatch.matching import matcher as matcher_module
+
+    rng = np.random.default_rng(1)
+    p = rng.uniform(20, 120, (150, 2)).astype(np.float32)
+    d = rng.normal(size=(150, 25)).astype(np.float32)
+    m = HopfieldMatcher(max_disparity=20)
+    m.setPairInfo(p, p - [5, 0])
+    real = matcher_module.match_pair
+
+    def meanwhile(*args, **kwargs):
+        import threading
+
+        t = threading.Thread(target=m.setPairInfo, args=(p, p - [6, 0]))
+        t.start()
+        t.join()
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(matcher_module, "match_pair", meanwhile)
+    with pytest.raises(ConcurrentPairInfoError, match="changed while this match ran"):
+        m.match(d, d)
+    monkeypatch.setattr(matcher_module, "match_pair", real)
+    # this thread set a pair, another replaced it: refused up front
+    with pytest.raises(ConcurrentPairInfoError, match="another thread replaced"):
+        m.match(d, d)
+    m.setPairInfo(p, p - [5, 0])  # its own again: fine
+    assert len(m.match(d, d)) > 50
+    import threading
+
+    got = []
+    t = threading.Thread(target=lambda: got.append(len(m.match(d, d))))
+    t.start()
+    t.join()
+    assert got and got[0] > 50  # a thread that only matches shares the pair
+    # pickling and cloning give a fresh state
+    import pickle
+
+    other = pickle.loads(pickle.dumps(m))
+    other.setPairInfo(p, p - [5, 0])
+    assert len(other.match(d, d)) > 50 and len(m.clone().match(d, d)) > 50

@@ -16,17 +16,22 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hopmatch._files import write_text_atomic
+from hopmatch.errors import InvalidArgumentError
 from hopmatch.matching.stereo_match import stereo_pipeline
 
 from .pairs import Pair, as_pairs
-from .results import complete_rows, summary_table
+from .results import complete_rows, finished_counts, summary_table
 from .tasks import batch_task, match_pair
 
-__all__ = ["BatchReport", "Outcome", "check_params", "local_cluster", "match_pairs",
-           "run_batch"]
+__all__ = ["BatchReport", "Outcome", "SchedulerAddressError", "check_params",
+           "check_scheduler", "local_cluster", "match_pairs", "run_batch"]
 
 #: Seconds to wait for a scheduler given by address.
 CONNECT_TIMEOUT = 30
+#: Seconds between two writes of summary.csv during a batch (it is also written at the
+#: end, and when the batch is interrupted): results finished before a hard kill are
+#: recorded, hence not computed again.
+SUMMARY_EVERY = 2.0
 
 
 def check_params(params: dict, caller: str = "hopmatch_dask") -> dict:
@@ -39,6 +44,60 @@ def check_params(params: dict, caller: str = "hopmatch_dask") -> dict:
     """
     stereo_pipeline(params, caller)
     return dict(params)
+
+
+#: Seconds :func:`check_scheduler` waits for a TCP connection to the scheduler.
+PROBE_TIMEOUT = 1.0
+
+
+class SchedulerAddressError(InvalidArgumentError):
+    """The scheduler address cannot be parsed, or nothing answers there."""
+
+
+def check_scheduler(address: str, probe: bool = True) -> str:
+    """``address`` if it is a Dask scheduler address that answers, else
+    :class:`SchedulerAddressError` saying why, within about :data:`PROBE_TIMEOUT` seconds
+    (instead of an internal error from ``distributed``, or a wait of
+    :data:`CONNECT_TIMEOUT` seconds on a port where nothing listens).
+
+    The scheme must be one ``distributed`` knows (``tcp://`` by default); a ``tcp://`` or
+    ``tls://`` address must have a host and a numeric port, and, with ``probe``, accept a
+    TCP connection.
+    """
+    import socket
+
+    from distributed.comm import registry
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    if not isinstance(address, str) or not address.strip():
+        raise SchedulerAddressError(f"`scheduler` must be an address such as "
+                                    f"tcp://10.0.0.5:8786, got {address!r}",
+                                    argument="scheduler")
+    try:
+        scheme, location = parse_address(address)
+        registry.get_backend(scheme)
+        host, port = parse_host_port(location, 8786) if scheme in ("tcp", "tls") else ("", 0)
+    except (ValueError, TypeError) as exc:
+        raise SchedulerAddressError(f"`scheduler` {address!r} is not a Dask scheduler "
+                                    f"address ({' '.join(str(exc).split())}); expected "
+                                    "e.g. tcp://10.0.0.5:8786", argument="scheduler") from None
+    if scheme in ("tcp", "tls"):
+        if not host:
+            raise SchedulerAddressError(f"`scheduler` {address!r} names no host; expected "
+                                        "e.g. tcp://10.0.0.5:8786", argument="scheduler")
+        if not 0 < port < 65536:
+            raise SchedulerAddressError(f"`scheduler` {address!r}: port {port} is not in "
+                                        "[1, 65535]", argument="scheduler")
+        if probe:
+            try:
+                socket.create_connection((host, port), timeout=PROBE_TIMEOUT).close()
+            except OSError as exc:
+                reason = exc.strerror or type(exc).__name__
+                raise SchedulerAddressError(
+                    f"`scheduler` {address!r}: cannot reach {host}:{port} ({reason}); is a "
+                    "scheduler running there (dask scheduler --port ...)?",
+                    argument="scheduler") from None
+    return address
 
 
 def _key(prefix: str, pair: Pair, params: dict) -> str:
@@ -188,8 +247,12 @@ def run_batch(pairs, out, *, client=None, scheduler: str | None = None,
     Notes
     -----
     Pairs whose ``out/<name>.csv`` exists and is complete are skipped (not submitted), so
-    rerunning an interrupted batch finishes it; delete a result, or use another folder,
-    to compute it again (e.g. with other parameters). A pair whose images cannot be read
+    rerunning an interrupted batch finishes it; complete means well formed and holding the
+    number of matches that ``out/summary.csv`` recorded for the pair
+    (:func:`~hopmatch_dask.results.complete_rows`; summary.csv is rewritten every
+    :data:`SUMMARY_EVERY` seconds during the batch, at its end and when it is
+    interrupted). Delete a result, or use another folder, to compute it again (e.g. with
+    other parameters). A pair whose images cannot be read
     or matched is recorded as ``failed`` in summary.csv and the others go on. A worker lost
     mid-task has its tasks run again elsewhere (up to ``distributed.scheduler.allowed-failures``
     times, 3 by default, then the pair fails with ``KilledWorker``).
@@ -201,6 +264,10 @@ def run_batch(pairs, out, *, client=None, scheduler: str | None = None,
     t0 = time.perf_counter()
     outcomes: dict[str, Outcome] = {}
     total, done = len(items), 0
+    last_summary = [time.monotonic()]
+
+    def ordered() -> list[Outcome]:
+        return [outcomes.get(p.name) or Outcome(p.name, "not run") for p in items]
 
     def record(outcome: Outcome) -> None:
         nonlocal done
@@ -208,10 +275,15 @@ def run_batch(pairs, out, *, client=None, scheduler: str | None = None,
         done += 1
         if progress is not None:
             progress(outcome, done, total)
+        if outcome.status == "ok" and time.monotonic() - last_summary[0] >= SUMMARY_EVERY:
+            write_text_atomic(out / "summary.csv", summary_table(ordered()))
+            last_summary[0] = time.monotonic()
 
     todo = []
+    recorded = finished_counts(out / "summary.csv")
     for p in items:
-        rows = complete_rows(out / f"{p.name}.csv")
+        # a pair the summary does not record as done (-1 rows) is computed again
+        rows = complete_rows(out / f"{p.name}.csv", recorded.get(p.name, -1))
         if rows is None:
             todo.append(p)
         else:
@@ -223,9 +295,9 @@ def run_batch(pairs, out, *, client=None, scheduler: str | None = None,
                 n_workers = len(c.nthreads())
                 _run(c, todo, params, out, record)
     finally:
-        ordered = [outcomes.get(p.name) or Outcome(p.name, "not run") for p in items]
-        write_text_atomic(out / "summary.csv", summary_table(ordered))
-    return BatchReport(ordered, time.perf_counter() - t0, out, n_workers)
+        final = ordered()
+        write_text_atomic(out / "summary.csv", summary_table(final))
+    return BatchReport(final, time.perf_counter() - t0, out, n_workers)
 
 
 def _run(client, todo: list[Pair], params: dict, out: Path, record) -> None:

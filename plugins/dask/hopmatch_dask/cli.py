@@ -26,7 +26,7 @@ import hopmatch
 from hopmatch.cli import given_parameters, parameter_options
 from hopmatch.errors import HopmatchError
 
-from .batch import check_params, run_batch
+from .batch import check_params, check_scheduler, run_batch
 from .pairs import read_pairs
 
 __all__ = ["EXIT_PAIRS_FAILED", "batch"]
@@ -100,6 +100,13 @@ def batch(ctx, pairs_csv, out, scheduler, workers, **params):
     if scheduler and workers:
         raise click.UsageError("--workers sets the size of the local cluster; it cannot be "
                                "used with --scheduler (size that cluster where it runs)")
+    if scheduler is not None:
+        try:
+            check_scheduler(scheduler)
+        except HopmatchError as exc:
+            message = " ".join(str(exc).split())
+            raise click.BadParameter(message.removeprefix("`scheduler` "),
+                                     param_hint="--scheduler") from None
     try:
         check_params(given, "hopmatch batch")
     except HopmatchError as exc:

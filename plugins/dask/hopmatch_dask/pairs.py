@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hopmatch._files import MAX_FILE_BYTES, FileReadError, read_input_bytes
 from hopmatch.errors import InvalidArgumentError, InvalidTypeError
 
 __all__ = ["Pair", "PairsFileError", "as_pairs", "read_pairs"]
@@ -91,14 +92,16 @@ def read_pairs(path) -> list[Pair]:
     """
     path = Path(path)
     label = str(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise PairsFileError(f"{label}: no such file") from None
-    except IsADirectoryError:
-        raise PairsFileError(f"{label}: is a folder, not a CSV file") from None
-    except (OSError, UnicodeDecodeError) as exc:
+    try:  # a regular file of at most 1 GiB: a named pipe or a device is refused unopened
+        text = read_input_bytes(path, MAX_FILE_BYTES).decode("utf-8-sig")
+    except FileReadError as exc:
+        problem = {"no such file": "no such file",
+                   "is a folder, not a file": "is a folder, not a CSV file"}.get(exc.problem,
+                                                                               exc.problem)
+        raise PairsFileError(f"{label}: {problem}") from None
+    except UnicodeDecodeError as exc:
         raise PairsFileError(f"{label}: cannot read the file: {exc}") from None
+    text = text.replace("\r\n", "\n").replace("\r", "\n")
     rows = list(csv.reader(text.splitlines()))
     numbered = [(i + 1, [c.strip() for c in row]) for i, row in enumerate(rows)
                 if any(c.strip() for c in row)]

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import csv
 import io
-from pathlib import Path
+import math
 
-from hopmatch._files import write_text_atomic
+from hopmatch._files import MAX_FILE_BYTES, FileReadError, read_input_bytes, write_text_atomic
 from hopmatch._tables import MATCH_COLUMNS, matches_table
 
-__all__ = ["COLUMNS", "SUMMARY_COLUMNS", "complete_rows", "matches_table", "summary_table",
-           "write_text_atomic"]
+__all__ = ["COLUMNS", "SUMMARY_COLUMNS", "complete_rows", "finished_counts", "matches_table",
+           "summary_table", "write_text_atomic"]
 
 #: Columns of ``<name>.csv``: those of ``hopmatch match``'s matches.csv
 #: (:func:`matches_table` is the writer both use).
@@ -20,12 +20,16 @@ COLUMNS = MATCH_COLUMNS
 SUMMARY_COLUMNS = ("name", "status", "matches", "seconds", "error")
 
 
-def complete_rows(path) -> int | None:
+def complete_rows(path, expected: int | None = None) -> int | None:
     """The number of matches in the result file ``path`` if it is complete, else None.
 
-    Complete: it exists, has the header of :data:`COLUMNS`, ends with a newline and every
-    line holds six numbers. Files are renamed into place only when fully written, so an
-    incomplete one was damaged afterwards; it is computed again.
+    Complete: it is a regular file (a named pipe or device is not read: never blocks) of at
+    most 1 GiB, has the header of :data:`COLUMNS`, ends with a newline, every line holds six
+    finite numbers (the writer never writes NaN or inf) and, when ``expected`` is given,
+    it holds exactly ``expected`` rows (a file cut at a line boundary has fewer: the
+    batch passes the count its summary recorded, :func:`finished_counts`). Files are
+    renamed into place only when fully written, so an incomplete one was damaged
+    afterwards; it is computed again.
 
     Examples
     --------
@@ -33,16 +37,16 @@ def complete_rows(path) -> int | None:
     >>> path = os.path.join(tempfile.mkdtemp(), "pair.csv")
     >>> with open(path, "w") as f:
     ...     _ = f.write(matches_table([[10, 5]], [[4, 5]], [6], [0.25]))
-    >>> complete_rows(path)
-    1
+    >>> complete_rows(path), complete_rows(path, expected=2)
+    (1, None)
     >>> with open(path, "a") as f:
     ...     _ = f.write("1.0,2.0")             # cut short
     >>> complete_rows(path) is None
     True
     """
     try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError):
+        text = read_input_bytes(path, MAX_FILE_BYTES).decode("utf-8")
+    except (FileReadError, UnicodeDecodeError):
         return None
     if not text.endswith("\n"):
         return None
@@ -54,10 +58,32 @@ def complete_rows(path) -> int | None:
         if len(cells) != len(COLUMNS):
             return None
         try:
-            [float(c) for c in cells]
+            if not all(math.isfinite(float(c)) for c in cells):
+                return None
         except ValueError:
             return None
-    return len(lines) - 1
+    rows = len(lines) - 1
+    if expected is not None and rows != expected:
+        return None
+    return rows
+
+
+def finished_counts(path) -> dict[str, int]:
+    """``{name: matches}`` of the pairs that ``summary.csv`` at ``path`` records as done
+    (``ok`` or ``skipped``); empty when it is missing or unreadable. A result file counts
+    as complete on a rerun only if its row count is the one recorded here."""
+    try:
+        text = read_input_bytes(path, MAX_FILE_BYTES).decode("utf-8")
+    except (FileReadError, UnicodeDecodeError):
+        return {}
+    counts = {}
+    for row in csv.DictReader(io.StringIO(text)):
+        try:
+            if row.get("status") in ("ok", "skipped") and row.get("name"):
+                counts[row["name"]] = int(row["matches"])
+        except (TypeError, ValueError):
+            continue
+    return counts
 
 
 def summary_table(outcomes) -> str:

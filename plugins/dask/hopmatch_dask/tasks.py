@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 import hopmatch
+from hopmatch._validate import DEFAULT_MAX_PIXELS
 from hopmatch.errors import HopmatchError, InvalidArgumentError
 from hopmatch.imageio import ImageReadError, read_image
 
@@ -53,11 +54,11 @@ class PairResult:
                              self.distances)
 
 
-def _image(value, side: str) -> np.ndarray:
+def _image(value, side: str, max_pixels: int | None = DEFAULT_MAX_PIXELS) -> np.ndarray:
     if isinstance(value, np.ndarray):
         return value
     if isinstance(value, (str, os.PathLike)):
-        return read_image(value)
+        return read_image(value, max_pixels=max_pixels)  # refused from the header if larger
     raise InvalidArgumentError(f"`{side}` must be an image path or a numpy array, got "
                                f"{type(value).__name__}")
 
@@ -71,7 +72,9 @@ def _worker_id() -> str:
 def match_pair(pair, params: dict) -> PairResult:
     """Match one :class:`~hopmatch_dask.Pair` (on a worker); errors propagate."""
     t0 = time.perf_counter()
-    left, right = _image(pair.left, "left"), _image(pair.right, "right")
+    max_pixels = params.get("max_pixels", DEFAULT_MAX_PIXELS)
+    left = _image(pair.left, "left", max_pixels)
+    right = _image(pair.right, "right", max_pixels)
     res = hopmatch.match_stereo(left, right, **params)
     return PairResult(pair.name, res.matched_left, res.matched_right, res.disparities,
                       res.distances, time.perf_counter() - t0, _worker_id())
