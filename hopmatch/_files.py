@@ -242,9 +242,9 @@ def check_output_path(path, name: str = "path") -> Path:
     path = Path(path)
     folder = path.parent
     if len(os.fsencode(path.name)) > NAME_MAX:
-        raise FileWriteError(f"`{name}`: cannot write {str(path)!r}: the file name is "
-                             f"{len(os.fsencode(path.name))} bytes long, more than the "
-                             f"{NAME_MAX} a file system allows", argument=name)
+        raise FileWriteError(f"`{name}`: cannot write {str(path)!r}: the file name is too "
+                             f"long ({len(os.fsencode(path.name))} bytes long, more than the "
+                             f"{NAME_MAX} a file system allows)", argument=name)
     try:
         is_dir = folder.is_dir()
     except OSError as exc:

@@ -114,8 +114,8 @@ def signals_deferred():
 def _too_long(path: Path) -> str | None:
     for part in path.parts:
         if len(os.fsencode(part)) > NAME_MAX:
-            return (f"the name {part[:40]!r}... is {len(os.fsencode(part))} bytes long, more "
-                    f"than the {NAME_MAX} a file system allows")
+            return (f"the name {part[:40]!r}... is too long ({len(os.fsencode(part))} bytes "
+                    f"long, more than the {NAME_MAX} a file system allows)")
     return None
 
 

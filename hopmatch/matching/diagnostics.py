@@ -10,7 +10,6 @@ from ..errors import (
     BudgetExceededError,
     DisparityRangeWarning,
     FewMatchesWarning,
-    HopmatchWarning,
     ImageSizeWarning,
     UnrectifiedPairWarning,
 )
@@ -47,10 +46,11 @@ STEREO_MIN_CLEAR = 0.05
 STEREO_MIN_CLOSE = 0.2
 
 
-class NotStereoPairWarning(HopmatchWarning):
+class NotStereoPairWarning(FewMatchesWarning):
     """The two images do not look like two views of one scene: almost no left point has a
     look-alike anywhere near its row in the right image (see
-    :func:`stereo_pair_evidence`)."""
+    :func:`stereo_pair_evidence`). A :class:`~hopmatch.errors.FewMatchesWarning` whose
+    cause is that diagnosis."""
 
 
 # Few matches (docs/robustness.md): a pair with at least FEW_MATCHES_MIN_POINTS keypoints a
@@ -179,6 +179,11 @@ def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config) ->
                  "rectify the pair (hopmatch.stereo.rectify) or call setFundamentalMatrix(F)",
                  UnrectifiedPairWarning)
             return True
+    ratio = contrast_ratio(qd, td)
+    gain = "" if ratio is None or 1 / FEW_MATCHES_CONTRAST <= ratio <= FEW_MATCHES_CONTRAST \
+        else (f" (the right image's windows have {ratio:.3g} times the contrast of the left "
+              "image's: if both show one scene, they differ in gain or exposure, or in "
+              "dtype; give both images the same scale first)")
     st = stereo_pair_evidence(q_pts, t_pts, qd, td, config.min_disparity,
                               config.max_disparity)
     if st is not None and st[0] < STEREO_MIN_CLEAR and st[1] < STEREO_MIN_CLOSE:
@@ -190,7 +195,7 @@ def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config) ->
              "are not rectified, rectify them (hopmatch.stereo.rectify or "
              "rectify_uncalibrated) or give their fundamental matrix (setFundamentalMatrix(F)"
              "); to find an object in a scene (find_obj.py), use SIFT or ORB with "
-             "cv2.findHomography instead", NotStereoPairWarning)
+             f"cv2.findHomography instead{gain}", NotStereoPairWarning)
         return True
     return False
 
@@ -237,15 +242,21 @@ def few_matches_cause(result, qd, td, config) -> str:
             "misaligned")
 
 
-def warn_if_few_matches(result, q_pts, t_pts, qd, td, config) -> bool:
+def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
+                        range_found: bool = True) -> bool:
     """Warn (:class:`~hopmatch.errors.FewMatchesWarning`) when a pair of at least
     :data:`FEW_MATCHES_MIN_POINTS` keypoints a side kept fewer than
     ``max(FEW_MATCHES_FLOOR, FEW_MATCHES_FRACTION * keypoints)`` matches, saying the
-    likely cause (:func:`few_matches_cause`). Returns whether it warned."""
+    likely cause (:func:`few_matches_cause`), and, when ``range_found`` is False, that the
+    disparity range could not be found and the whole fallback range was searched. Returns
+    whether it warned."""
     n = min(len(q_pts), len(t_pts))
     kept = len(result.query_idx)
     if n < FEW_MATCHES_MIN_POINTS or kept >= max(FEW_MATCHES_FLOOR, FEW_MATCHES_FRACTION * n):
         return False
-    warn(f"only {kept} matches for {len(q_pts)} left and {len(t_pts)} right keypoints: "
-         f"{few_matches_cause(result, qd, td, config)}", FewMatchesWarning)
+    searched = "" if range_found else (
+        f" (max_disparity=None: the coarse pass found no range, so the whole range "
+        f"[{config.min_disparity:g}, {config.max_disparity:g}] was searched)")
+    warn(f"only {kept} matches for {len(q_pts)} left and {len(t_pts)} right keypoints"
+         f"{searched}: {few_matches_cause(result, qd, td, config)}", FewMatchesWarning)
     return True

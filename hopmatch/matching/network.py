@@ -263,10 +263,9 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     # also defeats the range search, and the diagnosis says more than the others would
     if not warn_if_unrectified(len(result.query_idx), q_pts, t_pts, qd, td, fundamental,
                                config):
-        if found.source == "fallback" and len(result.query_idx) == 0:
+        if not warn_if_few_matches(result, q_pts, t_pts, qd, td, config,
+                                   range_found=found.source != "fallback"):
             warn_fallback(found, len(result.query_idx))
-        else:
-            warn_if_few_matches(result, q_pts, t_pts, qd, td, config)
     return result
 
 

@@ -147,10 +147,11 @@ def test_two_unrelated_images_of_one_size_warn():
 def test_stereo_pairs_are_not_called_unrelated(motorcycle):
     """Rectified, unrectified (rotated and shifted) and swapped views of one scene never get
     the warning; the unrectified one gets the rectification warning alone, the swapped one
-    the disparity-range warning (its disparities are negative) alone."""
+    the few-matches warning (its disparities are negative, so the range search finds
+    nothing) alone."""
     import cv2
 
-    from hopmatch.errors import DisparityRangeWarning, UnrectifiedPairWarning
+    from hopmatch.errors import FewMatchesWarning, UnrectifiedPairWarning
     from hopmatch.matching.diagnostics import NotStereoPairWarning
 
     left, right = (cv2.cvtColor(img, cv2.COLOR_RGB2GRAY) for img in motorcycle[:2])
@@ -160,7 +161,7 @@ def test_stereo_pairs_are_not_called_unrelated(motorcycle):
     for l_img, r_img, expected in ((left, right, []),
                                    (left, cv2.warpAffine(right, M, (w, h)),
                                     [UnrectifiedPairWarning]),
-                                   (right, left, [DisparityRangeWarning])):
+                                   (right, left, [FewMatchesWarning])):
         _, caught = _caught(lambda a=l_img, b=r_img: hopmatch.match_stereo(a, b))
         categories = [w.category for w in caught]
         assert NotStereoPairWarning not in categories
@@ -207,9 +208,10 @@ def _few(call):
 def test_few_matches_warns_for_an_unrelated_pair():
     left, right = _noise(), _noise(9)
     res, hits = _few(lambda: hopmatch.match_stereo(left, right, max_disparity=16))
+    # the one few-matches warning is its most specific kind: not a stereo pair
     assert len(res.matches) < 5 and len(hits) == 1
-    assert "no candidate pair lies in the search window" in hits[0]
-    assert hits[0].startswith(f"only {len(res.matches)} matches for ")
+    assert hits[0].startswith("the pair does not look like a stereo pair")
+    assert f"and {len(res.matches)} matches were found" in hits[0]
 
 
 def test_few_matches_names_a_gain_mismatch():
