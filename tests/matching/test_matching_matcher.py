@@ -326,10 +326,19 @@ def test_concurrent_set_pair_info_raises_rather_than_mixing_pairs():
         p = rng.uniform(20, 200, (150, 2)).astype(np.float32)
         jobs.append((p, p - np.float32([3 + t % 10, 0]), rng.normal(size=(150, 25)).astype(
             np.float32)))
+    def alone(job):
+        p, q, d = job
+        solo = HopfieldMatcher(max_disparity=20)
+        solo.setPairInfo(p, q)
+        return [(x.queryIdx, x.trainIdx) for x in solo.match(d, d)]
+
+    # what each pair gives on a matcher of its own (some pairs keep only about 50)
+    expected = [alone(job) for job in jobs]
+    assert all(len(e) > 20 for e in expected)
     barrier = threading.Barrier(8)
 
     def one(job):
-        p, q, d = job
+        p, q, d = jobs[job]
         try:
             barrier.wait(timeout=10)
         except threading.BrokenBarrierError:
@@ -340,11 +349,11 @@ def test_concurrent_set_pair_info_raises_rather_than_mixing_pairs():
             res = m.match(d, d)
         except ConcurrentPairInfoError:
             return "refused"
-        own = len(res) > 50 and all(x.queryIdx == x.trainIdx for x in res)
+        own = [(x.queryIdx, x.trainIdx) for x in res] == expected[job]
         return "own" if own else "wrong"
 
     with ThreadPoolExecutor(8) as ex:
-        out = list(ex.map(one, jobs))
+        out = list(ex.map(one, range(len(jobs))))
     assert out.count("wrong") == 0, out
     assert out.count("refused") > 0  # the misuse was seen
 
