@@ -59,10 +59,13 @@ def check_finite_gradient(g: np.ndarray, gray: np.ndarray, name: str = "image", 
     magnitude infinite."""
     if not np.isfinite(g).all():
         if np.issubdtype(gray.dtype, np.integer):
+            # the parameter farther from its default (in decades) is named for the CLI
+            blamed = ("alpha" if abs(math.log10(alpha)) >= abs(math.log10(omega / 0.001))
+                      else "omega")
             raise InvalidArgumentError(
                 f"the Canny-Deriche filter gives non-finite values with alpha={alpha!r} and "
                 f"omega={omega!r}: OpenCV's coefficients overflow at such values; use "
-                "values near the defaults (alpha 1.0, omega 0.001)"
+                "values near the defaults (alpha 1.0, omega 0.001)", argument=blamed
             )
         big = float(np.abs(gray).max())
         raise InvalidArgumentError(
