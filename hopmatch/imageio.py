@@ -66,9 +66,13 @@ class ImageReadError(FileReadError):
     Examples
     --------
     >>> err = ImageReadError("left.png", "no such file", kind="missing")
-    >>> str(err), err.kind, isinstance(err, ValueError)
-    ('left.png: no such file', 'missing', True)
+    >>> str(err), err.kind, err.argument, isinstance(err, ValueError)
+    ('left.png: no such file', 'missing', 'path', True)
     """
+
+    def __init__(self, path, problem: str, kind: str | None = None,
+                 argument: str | None = "path"):
+        super().__init__(path, problem, kind, argument)
 
 
 _PAM = re.compile(rb"\AP7\s(?:.*?\s)?WIDTH\s+(\d+)\s+HEIGHT\s+(\d+)\s", re.S)
