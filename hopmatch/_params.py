@@ -381,7 +381,7 @@ class Configurable:
                     values[p.name] = int(text)  # beyond int32, as write() stores it
             elif sub.isInt():
                 number = sub.real()
-                if abs(number) >= _EXACT_INT:  # 2**53 + 1 reads as 2**53 too
+                if p.kind == "int" and abs(number) >= _EXACT_INT:  # 2**53 + 1 reads as 2**53
                     raise InvalidArgumentError(
                         f"`fs`: parameter `{p.name}` holds the integer {number:.17g}, beyond "
                         f"the 2**53 that cv2.FileStorage reads exactly; write it as a string "

@@ -30,6 +30,10 @@ MAX_COORDINATE = float(2**20)
 #: the descriptors of the keypoints found.
 DETECTOR_BYTES_PER_PIXEL = 45
 
+#: Largest image hopmatch allocates for an output whose size the caller gives
+#: (``sparse_disparity_image``'s shape): OpenCV's own limit on decoded images, 2**30 pixels.
+MAX_IMAGE_PIXELS = 2**30
+
 #: The detector's ``max_pixels`` by default (about 2.2 GiB of detection memory), also the
 #: limit :func:`hopmatch.imageio.read_image` reads image headers against by default.
 DEFAULT_MAX_PIXELS = 50_000_000

@@ -22,7 +22,7 @@ import numpy as np
 
 from ._files import MAX_FILE_BYTES, FileReadError, os_reason, read_input_bytes
 from ._validate import DEFAULT_MAX_PIXELS, as_int, describe
-from .errors import InvalidTypeError
+from .errors import InvalidArgumentError, InvalidTypeError
 
 __all__ = ["DEFAULT_FLAGS", "HEADER_FORMATS", "KINDS", "ImageReadError", "header_size",
            "os_reason", "read_image"]
@@ -66,9 +66,13 @@ class ImageReadError(FileReadError):
     Examples
     --------
     >>> err = ImageReadError("left.png", "no such file", kind="missing")
-    >>> str(err), err.kind, isinstance(err, ValueError)
-    ('left.png: no such file', 'missing', True)
+    >>> str(err), err.kind, err.argument, isinstance(err, ValueError)
+    ('left.png: no such file', 'missing', 'path', True)
     """
+
+    def __init__(self, path, problem: str, kind: str | None = None,
+                 argument: str | None = "path"):
+        super().__init__(path, problem, kind, argument)
 
 
 _PAM = re.compile(rb"\AP7\s(?:.*?\s)?WIDTH\s+(\d+)\s+HEIGHT\s+(\d+)\s", re.S)
@@ -181,7 +185,7 @@ def read_image(path, flags: int = DEFAULT_FLAGS, *, max_pixels: int | None = DEF
     """
     if not isinstance(path, (str, os.PathLike)):
         raise InvalidTypeError(f"`path` must be a str or os.PathLike, got {describe(path)}")
-    flags = as_int(flags, "flags")
+    flags = as_int(flags, "flags", lo=-1, hi=1023)  # cv2.IMREAD_* values and their sums
     max_pixels = as_int(max_pixels, "max_pixels", lo=1, optional=True)
     max_bytes = as_int(max_bytes, "max_bytes", lo=1, optional=True)
     try:
@@ -200,6 +204,26 @@ def read_image(path, flags: int = DEFAULT_FLAGS, *, max_pixels: int | None = DEF
         if size is not None and size[0] * size[1] > max_pixels:
             raise ImageReadError(path, _pixel_problem(*size, max_pixels, " by its header"),
                                  kind="too_many_pixels")
+    image, captured = _decode(data, flags)
+    if (image is None or image.size == 0) and flags != DEFAULT_FLAGS \
+            and _decode(data, DEFAULT_FLAGS)[0] is not None:
+        raise InvalidArgumentError(
+            f"`flags`: OpenCV cannot decode {os.fspath(path)!r} with flags={flags}, but can "
+            "with the default ones; use cv2.IMREAD_* values (e.g. cv2.IMREAD_UNCHANGED, "
+            "cv2.IMREAD_GRAYSCALE)", argument="flags")
+    if image is None or image.size == 0:
+        detail = " ".join(captured.get("text", "").split())
+        raise ImageReadError(path, "is not an image OpenCV can read (corrupt, truncated or of "
+                                   "an unsupported format)" + (f" [{detail}]" if detail else ""),
+                             kind="undecodable")
+    if max_pixels is not None and image.shape[0] * image.shape[1] > max_pixels:
+        raise ImageReadError(path, _pixel_problem(image.shape[1], image.shape[0], max_pixels,
+                                                  ""), kind="too_many_pixels")
+    return image
+
+
+def _decode(data: bytes, flags: int):
+    """``(cv2.imdecode(data, flags) or None, what the decoder printed)``, quietly."""
     with _DECODE_LOCK, _captured_fd2() as captured:
         log = cv2.utils.logging
         old = log.getLogLevel()
@@ -210,15 +234,7 @@ def read_image(path, flags: int = DEFAULT_FLAGS, *, max_pixels: int | None = DEF
             image = None
         finally:
             log.setLogLevel(old)
-    if image is None or image.size == 0:
-        detail = " ".join(captured.get("text", "").split())
-        raise ImageReadError(path, "is not an image OpenCV can read (corrupt, truncated or of "
-                                   "an unsupported format)" + (f" [{detail}]" if detail else ""),
-                             kind="undecodable")
-    if max_pixels is not None and image.shape[0] * image.shape[1] > max_pixels:
-        raise ImageReadError(path, _pixel_problem(image.shape[1], image.shape[0], max_pixels,
-                                                  ""), kind="too_many_pixels")
-    return image
+    return image, captured
 
 
 @contextlib.contextmanager

@@ -5,6 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from .._kernels import descriptor as _k
+from .._validate import as_int, as_points, describe
+from ..errors import BudgetExceededError, InvalidArgumentError, InvalidTypeError
+
+#: Largest window side :func:`gradient_windows` cuts, and most values it returns in all.
+MAX_WINDOW = 4095
+MAX_WINDOW_VALUES = 2**30
 
 
 def window_inside(points: np.ndarray, shape: tuple[int, int], size: int) -> np.ndarray:
@@ -42,8 +48,20 @@ def gradient_windows(g: np.ndarray, points: np.ndarray, size: int) -> np.ndarray
     >>> gradient_windows(g, np.array([[2, 2]], np.float32), 3)
     array([[-6., -5., -4., -1.,  0.,  1.,  4.,  5.,  6.]], dtype=float32)
     """
+    if not (isinstance(points, np.ndarray) and points.dtype == np.float32):
+        points = as_points(points, "points")  # checked: numbers, finite, (N, 2)
     points = np.ascontiguousarray(points, dtype=np.float32).reshape(-1, 2)
+    if not isinstance(g, np.ndarray) or g.dtype == np.bool_ or not np.issubdtype(g.dtype,
+                                                                                np.number):
+        raise InvalidTypeError(f"`g` must be a numeric numpy array, got {describe(g)}")
     if len(points) and (g.ndim != 2 or g.size == 0):
-        raise ValueError(f"`g` must be a non-empty 2-D image to cut windows from, got shape "
-                         f"{g.shape}")
+        raise InvalidArgumentError(f"`g` must be a non-empty 2-D image to cut windows from, "
+                                   f"got shape {g.shape}")
+    size = as_int(size, "size", lo=1, hi=MAX_WINDOW)
+    side = 2 * (size // 2) + 1
+    if len(points) * side * side > MAX_WINDOW_VALUES:
+        raise BudgetExceededError(
+            f"{len(points)} windows of {side} x {side} would hold "
+            f"{len(points) * side * side} values, more than {MAX_WINDOW_VALUES} (4 GiB of "
+            "float32); use a smaller `size` or fewer points", argument="size")
     return _k.bilinear_windows(np.ascontiguousarray(g, dtype=np.float32), points, size // 2)

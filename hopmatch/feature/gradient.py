@@ -59,10 +59,13 @@ def check_finite_gradient(g: np.ndarray, gray: np.ndarray, name: str = "image", 
     magnitude infinite."""
     if not np.isfinite(g).all():
         if np.issubdtype(gray.dtype, np.integer):
+            # the parameter farther from its default (in decades) is named for the CLI
+            blamed = ("alpha" if abs(math.log10(alpha)) >= abs(math.log10(omega / 0.001))
+                      else "omega")
             raise InvalidArgumentError(
                 f"the Canny-Deriche filter gives non-finite values with alpha={alpha!r} and "
                 f"omega={omega!r}: OpenCV's coefficients overflow at such values; use "
-                "values near the defaults (alpha 1.0, omega 0.001)"
+                "values near the defaults (alpha 1.0, omega 0.001)", argument=blamed
             )
         big = float(np.abs(gray).max())
         raise InvalidArgumentError(
@@ -91,16 +94,59 @@ def border_width(alpha: float) -> int:
     return int(math.ceil(width)) if width < 256 else 256
 
 
+#: Spread of the grey levels after :func:`normalised_intensity`: the distance between the
+#: 1st and 99th percentiles, that of an 8-bit image using most of its range (the shared
+#: scenes spread over 147 to 243, see docs/robustness.md, "Gain and dtype").
+INTENSITY_RANGE = 230.0
+#: Percentiles whose distance measures the spread: robust to a few saturated pixels, and
+#: on the shared pairs closer between the two views of one scene than the standard
+#: deviation, which large bright or dark regions entering one view only move.
+SPREAD_PERCENTILES = (1.0, 99.0)
+
+
+def intensity_spread(gray: np.ndarray) -> float:
+    """The distance between the :data:`SPREAD_PERCENTILES` of ``gray``'s grey levels, on
+    a regular subsample of at most about a million pixels; the standard deviation when
+    that distance is 0 (an image that is mostly flat). Proportional to the gain, blind
+    to an offset, whatever the dtype."""
+    step = max(1, int(math.sqrt(gray.size / 2**20)))
+    sample = gray[::step, ::step]
+    lo, hi = np.percentile(sample, SPREAD_PERCENTILES)
+    spread = float(hi) - float(lo)
+    if not spread > 0.0:
+        spread = float(cv2.meanStdDev(np.ascontiguousarray(sample, np.float32))[1][0, 0])
+    return spread
+
+
+def normalised_intensity(gray: np.ndarray) -> np.ndarray:
+    """The validated grey image ``gray`` as float32, scaled so that its grey levels spread
+    over :data:`INTENSITY_RANGE` (:func:`intensity_spread`); a flat image is left as it is.
+
+    The similarity of eq. 7 compares windows of the two images, and its gate takes them
+    for unrelated when their contrasts differ much: a right image at half the gain of the
+    left, or a uint16 image (x 257) against a uint8 one, or floats in [0, 1], gave no match
+    at all. Scaling each image by its own spread makes the points, the descriptors and
+    their similarity independent of gain and dtype (an offset never mattered: G and the
+    windows are differences).
+    """
+    img = gray.astype(np.float32)
+    spread = intensity_spread(img) if img.size else 0.0
+    if spread > 0.0 and np.isfinite(spread):
+        img *= np.float32(INTENSITY_RANGE / spread)
+    return img
+
+
 def feature_image(gray: np.ndarray, on: str, alpha: float, omega: float,
                   name: str = "image") -> np.ndarray:
     """The float32 image G that points and descriptors are measured on (SPEC section 1):
-    the Canny-Deriche gradient magnitude of the validated grey image ``gray`` when ``on``
-    is ``"gradient"`` (checked finite, :func:`check_finite_gradient`), else its grey
-    levels."""
+    the Canny-Deriche gradient magnitude of the validated grey image ``gray``, normalised
+    first (:func:`normalised_intensity`), when ``on`` is ``"gradient"`` (checked finite,
+    :func:`check_finite_gradient`), else its normalised grey levels."""
+    img = normalised_intensity(gray)
     if on == "gradient":
-        return check_finite_gradient(deriche_magnitude(gray, alpha, omega), gray, name,
+        return check_finite_gradient(deriche_magnitude(img, alpha, omega), gray, name,
                                      alpha=alpha, omega=omega)
-    return gray.astype(np.float32)
+    return img
 
 
 def deriche_magnitude(gray: np.ndarray, alpha: float, omega: float) -> np.ndarray:

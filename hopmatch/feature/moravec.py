@@ -219,7 +219,10 @@ def select_points(v, nms_size, threshold, relative_threshold, margin, max_featur
                    mask):
     """:func:`moravec_points` (eq. 2) on validated arguments: ``v`` a C-contiguous float32
     response, ``mask`` None or an (H, W) bool array."""
-    radius = nms_size // 2
+    # a radius past the image's sides sees the whole image already: the same maxima, and a
+    # dilation kernel of at most the image's size (nms_size=2**31 asked for 4 EiB)
+    radius = min(nms_size // 2, max(v.shape + (1,)))
+    margin = min(margin, max(v.shape + (1,)))  # as wide as the image excludes every pixel
     thr = threshold
     if relative_threshold and v.size:  # 0 * max V would leave max(threshold, 0.0) unchanged
         thr = max(threshold, relative_threshold * float(v.max()))

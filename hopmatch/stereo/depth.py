@@ -9,8 +9,8 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
-from .._validate import as_matrix, as_points, as_real, cv2_call, describe
-from ..errors import InvalidArgumentError, InvalidTypeError
+from .._validate import MAX_IMAGE_PIXELS, as_matrix, as_points, as_real, cv2_call, describe
+from ..errors import BudgetExceededError, InvalidArgumentError, InvalidTypeError
 from .checks import as_point_pair, as_real_array, as_values
 
 __all__ = [
@@ -67,6 +67,11 @@ def sparse_disparity_image(left_pts, disparities, shape) -> np.ndarray:
     h, w = int(shape[0]), int(shape[1])
     if h <= 0 or w <= 0:
         raise InvalidArgumentError(f"`shape` must be positive (H, W), got {(h, w)}")
+    if h * w > MAX_IMAGE_PIXELS:
+        raise BudgetExceededError(
+            f"`shape` {(h, w)} asks for {h * w} pixels, more than the {MAX_IMAGE_PIXELS} of "
+            "hopmatch._validate.MAX_IMAGE_PIXELS (4 GiB of float32); is it (H, W)?",
+            argument="shape")
     cols = np.rint(pts[:, 0]).astype(np.int64)
     rows = np.rint(pts[:, 1]).astype(np.int64)
     outside = np.flatnonzero((cols < 0) | (cols >= w) | (rows < 0) | (rows >= h))

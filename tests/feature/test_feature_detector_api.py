@@ -75,8 +75,15 @@ def test_detect_returns_real_keypoints(textured):
 
 
 def test_detect_matches_the_pure_functions(textured):
+    """The detector is the pure functions in a row: its grey levels normalised first
+    (issue 20: normalised_intensity, so that gain and dtype do not matter), then G, V and
+    the points."""
+    from hopmatch._validate import as_gray_image
+    from hopmatch.feature.gradient import normalised_intensity
+
     det = DericheMoravecDetector(subpixel=False)
-    g = hopmatch.deriche_gradient(textured, det.getAlpha(), det.getOmega())
+    g = hopmatch.deriche_gradient(normalised_intensity(as_gray_image(textured)), det.getAlpha(),
+                                  det.getOmega())
     v = hopmatch.moravec_response(g, det.getWindowSize())
     pts, resp = hopmatch.moravec_points(v, det.getNmsSize(), margin=det.getWindowSize() // 2 + 1)
     kps = det.detect(textured)
@@ -110,9 +117,13 @@ def test_gradient_border_is_no_edge_and_equals_a_wide_border(textured, alpha):
 
 
 def test_gaussian_window_matches_the_pure_functions(textured):
+    from hopmatch._validate import as_gray_image
+    from hopmatch.feature.gradient import normalised_intensity
+
     det = DericheMoravecDetector(window_sigma=0.85)
     assert det.getWindowSigma() == 0.85 and DericheMoravecDetector().getWindowSigma() == 0.0
-    g = hopmatch.deriche_gradient(textured, det.getAlpha(), det.getOmega())
+    g = hopmatch.deriche_gradient(normalised_intensity(as_gray_image(textured)), det.getAlpha(),
+                                  det.getOmega())
     v = hopmatch.moravec_response(g, det.getWindowSize(), window_sigma=0.85)
     pts, resp = hopmatch.moravec_points(v, det.getNmsSize(), threshold=det.getThreshold(),
                                         margin=det.getWindowSize() // 2 + 1, subpixel=True)

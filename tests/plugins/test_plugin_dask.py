@@ -115,6 +115,37 @@ class TestBatch:
         assert [o.status for o in report.outcomes] == ["skipped", "skipped", "ok", "skipped"]
         assert (out / "p02.csv").read_text() == text
 
+    @pytest.mark.parametrize("damage", ["cut at a line boundary", "nan row", "inf row",
+                                        "no summary entry"])
+    def test_damage_a_parser_cannot_see_is_computed_again(self, client, dataset, tmp_path,
+                                                          damage):
+        """Issue 20: a file cut at a line boundary, or holding nan, was taken as complete
+        on resume. Rows must be finite and as many as summary.csv recorded."""
+        out = tmp_path / "out"
+        pairs = read_pairs(dataset / "good.csv")[:3]
+        run_batch(pairs, out, client=client, **PARAMS)
+        text = (out / "p01.csv").read_text()
+        lines = text.splitlines(keepends=True)
+        if damage == "cut at a line boundary":
+            (out / "p01.csv").write_text("".join(lines[:len(lines) // 2]))
+        elif damage in ("nan row", "inf row"):
+            lines[2] = ",".join([damage.split()[0]] * len(COLUMNS)) + "\n"
+            (out / "p01.csv").write_text("".join(lines))
+        else:  # the summary lost the pair (a hard kill before it was rewritten)
+            summary = (out / "summary.csv").read_text().splitlines(keepends=True)
+            (out / "summary.csv").write_text("".join(x for x in summary if "p01" not in x))
+        report = run_batch(pairs, out, client=client, **PARAMS)
+        assert [o.status for o in report.outcomes] == ["skipped", "ok", "skipped"]
+        assert (out / "p01.csv").read_text() == text
+
+    def test_special_result_files_are_not_read(self, client, dataset, tmp_path):
+        out = tmp_path / "out"
+        out.mkdir()
+        if hasattr(os, "mkfifo"):
+            os.mkfifo(out / "p00.csv")  # would block a reader forever
+        report = run_batch(read_pairs(dataset / "good.csv")[:1], out, client=client, **PARAMS)
+        assert report.ok and (out / "p00.csv").read_text() == _expected_table(0)
+
     def test_worker_killed_mid_batch(self, client, dataset, tmp_path):
         out = tmp_path / "out"
         pairs = [Pair(f"k{i:02d}", str(dataset / "img" / f"l{i:02d}.png"),
@@ -261,6 +292,52 @@ class TestReadPairs:
     def test_missing_file(self, tmp_path):
         with pytest.raises(hopmatch_dask.PairsFileError, match="no such file"):
             read_pairs(tmp_path / "nope.csv")
+
+
+class TestInputs:
+    """Issue 20: PAIRS.csv and the images are regular files of bounded size, and the
+    scheduler address is checked before anything is submitted."""
+
+    def test_pairs_file_that_is_not_a_regular_file(self, tmp_path):
+        if hasattr(os, "mkfifo"):
+            os.mkfifo(tmp_path / "pipe.csv")
+            with pytest.raises(hopmatch_dask.PairsFileError, match="named pipe"):
+                read_pairs(tmp_path / "pipe.csv")
+        with open(tmp_path / "sparse.csv", "wb") as fh:
+            fh.truncate(40 * 2**30)
+        t0 = time.perf_counter()
+        with pytest.raises(hopmatch_dask.PairsFileError, match="40.0 GiB"):
+            read_pairs(tmp_path / "sparse.csv")
+        assert time.perf_counter() - t0 < 1.0
+
+    def test_images_over_max_pixels_are_refused_from_the_header(self, tmp_path, monkeypatch):
+        from hopmatch_dask.tasks import batch_task
+
+        big = tmp_path / "big.png"
+        assert cv2.imwrite(str(big), np.zeros((300, 400), np.uint8))
+        decoded = []
+        monkeypatch.setattr(cv2, "imdecode", lambda *a: decoded.append(a))
+        r = batch_task(Pair("big", str(big), str(big)), {"max_pixels": 1000})
+        assert r["status"] == "failed" and "more than max_pixels=1000" in r["error"]
+        assert decoded == []
+
+    @pytest.mark.parametrize("address, words", [
+        ("nonsense://::x", "unknown address scheme"), ("tcp://", "names no host"),
+        ("tcp://h:b", "not a Dask scheduler address"), ("tcp://127.0.0.1:1", "cannot reach"),
+        ("tcp://127.0.0.1:99999", "not in [1, 65535]"), ("", "must be an address")])
+    def test_check_scheduler(self, address, words):
+        from hopmatch_dask.batch import SchedulerAddressError, check_scheduler
+
+        t0 = time.perf_counter()
+        with pytest.raises(SchedulerAddressError) as exc:
+            check_scheduler(address)
+        assert words in str(exc.value) and exc.value.argument == "scheduler"
+        assert time.perf_counter() - t0 < 3.0
+
+    def test_check_scheduler_accepts_a_running_one(self, client):
+        from hopmatch_dask.batch import check_scheduler
+
+        assert check_scheduler(client.scheduler.address) == client.scheduler.address
 
 
 class TestCommandLine:
