@@ -108,9 +108,19 @@ def intensity_spread(gray: np.ndarray) -> float:
     """The distance between the :data:`SPREAD_PERCENTILES` of ``gray``'s grey levels, on
     a regular subsample of at most about a million pixels; the standard deviation when
     that distance is 0 (an image that is mostly flat). Proportional to the gain, blind
-    to an offset, whatever the dtype."""
+    to an offset, whatever the dtype.
+
+    Pixels at exactly the image's lowest or highest level are left out when at least
+    half the sample lies strictly between them: the fill of a warped or rectified view
+    (``cv2.remap``'s black border) and saturated areas differ between the two views of
+    one scene, and counted in they would give equal-gain views different scales.
+    """
     step = max(1, int(math.sqrt(gray.size / 2**20)))
     sample = gray[::step, ::step]
+    lo_level = sample.min()
+    inner = sample[sample > lo_level]
+    if 2 * inner.size >= sample.size:
+        sample = inner
     lo, hi = np.percentile(sample, SPREAD_PERCENTILES)
     spread = float(hi) - float(lo)
     if not spread > 0.0:
