@@ -211,8 +211,9 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
     Pairs whose window contrasts alone put them past the similarity ``gate``
     (:func:`contrast_admits`, the bound :func:`normalised_difference` skips by) are not
     written; ``scale_r_sorted`` is ``scale_r[order]``, ``gain_tol`` the relative gain the
-    similarity allows for. Pass zero scales and ``gate = inf`` to keep every pair. ``n`` counts every pair of the band all the same (the
-    ``max_neurons`` budget is on the band).
+    similarity allows for. Pass zero scales and ``gate = inf`` to keep every pair. ``n``
+    counts every pair of the band all the same (the ``max_neurons`` budget is on the
+    band).
 
     The search itself is :func:`_band_scan`; here the output grows by doubling up to
     ``max_neurons`` entries whenever a left point's pairs would not fit. Past that the
