@@ -122,3 +122,17 @@ class FewMatchesWarning(HopmatchWarning):
     """A pair with enough keypoints gave no or almost no matches; the message says the
     likely cause (different gain or dtype of the two images, an empty search window, no
     neighbours, no active neuron...). See ``docs/robustness.md``, "Few matches"."""
+
+
+class NotStereoPairWarning(FewMatchesWarning):
+    """The two images do not look like two views of one scene: almost no left point has a
+    look-alike anywhere near its row in the right image (see
+    :func:`hopmatch.matching.diagnostics.stereo_pair_evidence`). A
+    :class:`FewMatchesWarning` whose cause is that diagnosis."""
+
+
+class GeometryWarning(HopmatchWarning):
+    """No epipolar geometry could be estimated from the pair (``match_stereo(...,
+    rectified=False)``, ``HopfieldMatcher.estimateFundamentalMatrix``): too few
+    correspondences, or too few of them agree on one fundamental matrix. The result is
+    empty (no matches) rather than built on a wrong F."""

@@ -258,11 +258,12 @@ def neighbours(points, width, height):
     return out
 
 
-def similarity(a, b, eps=1e-6):
+def similarity(a, b, eps=1e-6, gain_tolerance=1.0):
     """Normalised eq. 7 distance between two descriptor rows (see
     ``hopmatch.matching.similarity.similarity_distance``): for uint8 rows the fraction of
-    differing bits; for float rows ``mean|a - b|`` over the mean of ``mean|a|`` and
-    ``mean|b|``."""
+    differing bits; for float rows ``mean|a - g b|`` over the mean of ``mean|a|`` and
+    ``mean|b|``, where ``g = mean|a| / mean|b|`` clipped to ``[1/t, t]`` for the
+    ``gain_tolerance`` t (1 when t is 1 or b is flat)."""
     if a.dtype == np.uint8:
         bits = 0
         for x, y in zip(a.tolist(), b.tolist()):
@@ -271,9 +272,12 @@ def similarity(a, b, eps=1e-6):
     a = [float(x) for x in a]
     b = [float(x) for x in b]
     n = len(a)
-    m = sum(abs(x - y) for x, y in zip(a, b)) / n
     scale_a = sum(abs(x) for x in a) / n
     scale_b = sum(abs(y) for y in b) / n
+    g = 1.0
+    if gain_tolerance > 1.0 and scale_b > 0.0:
+        g = min(max(scale_a / scale_b, 1.0 / gain_tolerance), gain_tolerance)
+    m = sum(abs(x - g * y) for x, y in zip(a, b)) / n
     return m / (0.5 * (scale_a + scale_b) + eps)
 
 
@@ -305,7 +309,9 @@ def dense_network(left, right, desc_l, desc_r, p, weight_dtype=np.float32):
     right = np.asarray(right, dtype=np.float32)
     pairs = candidate_pairs(left, right, p["min_disparity"], p["max_disparity"],
                             p["max_vertical"])
-    sims = {pair: similarity(desc_l[pair[0]], desc_r[pair[1]]) for pair in pairs}
+    tol = p.get("gain_tolerance", 1.0)
+    sims = {pair: similarity(desc_l[pair[0]], desc_r[pair[1]], gain_tolerance=tol)
+            for pair in pairs}
     if p["similarity_gate"] is not None:
         pairs = [pair for pair in pairs if sims[pair] <= p["similarity_gate"]]
     if p["max_candidates"]:

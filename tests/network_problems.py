@@ -64,7 +64,8 @@ def kernel_network(left, right, desc_l, desc_r, p):
     """The sparse network exactly as ``run_hopfield_network`` builds it, step by step."""
     ni, nk = candidate_pairs(left, right, p["min_disparity"], p["max_disparity"],
                              p["max_vertical"], p["max_neurons"])
-    sim = similarity_distance(desc_l, desc_r, ni, nk) if len(ni) else np.zeros(0)
+    sim = (similarity_distance(desc_l, desc_r, ni, nk, gain_tolerance=p["gain_tolerance"])
+           if len(ni) else np.zeros(0))
     keep = np.ones(len(ni), dtype=bool)
     if p["similarity_gate"] is not None:
         keep &= sim <= p["similarity_gate"]

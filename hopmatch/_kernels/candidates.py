@@ -191,7 +191,7 @@ def row_buckets(row_start, rx, max_entries):
 
 @jit
 def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dmax, vmax,
-                    max_neurons, scale_l, scale_r_sorted, gate, eps):
+                    max_neurons, scale_l, scale_r_sorted, gate, eps, gain_tol):
     """The pairs (i, k) with ``dmin <= xl - xr <= dmax`` and ``yl - vmax <= yr <= yl + vmax``
     (float32 arithmetic, as the points are stored), as ``(ni, nk, n)``: grouped by left point
     in the order ``visit`` lists them, each group in row order (:func:`group_by_left` and
@@ -210,9 +210,10 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
 
     Pairs whose window contrasts alone put them past the similarity ``gate``
     (:func:`contrast_admits`, the bound :func:`normalised_difference` skips by) are not
-    written; ``scale_r_sorted`` is ``scale_r[order]``. Pass zero scales and ``gate = inf``
-    to keep every pair. ``n`` counts every pair of the band all the same (the
-    ``max_neurons`` budget is on the band).
+    written; ``scale_r_sorted`` is ``scale_r[order]``, ``gain_tol`` the relative gain the
+    similarity allows for. Pass zero scales and ``gate = inf`` to keep every pair. ``n``
+    counts every pair of the band all the same (the ``max_neurons`` budget is on the
+    band).
 
     The search itself is :func:`_band_scan`; here the output grows by doubling up to
     ``max_neurons`` entries whenever a left point's pairs would not fit. Past that the
@@ -231,8 +232,8 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
     n = 0  # pairs in the band
     while q < visit.shape[0]:
         q, p, n = _band_scan(left, visit, q, row_values, table, x0, inv, nb, order, rx, ry,
-                             dmin, dmax, vmax, scale_l, scale_r_sorted, gate, eps, ni, nk,
-                             p, n, cap < max_neurons, max_neurons)
+                             dmin, dmax, vmax, scale_l, scale_r_sorted, gate, eps, gain_tol,
+                             ni, nk, p, n, cap < max_neurons, max_neurons)
         if q < visit.shape[0]:  # left point q did not fit: grow, then resume at it
             cap = min(2 * cap, max_neurons)
             ni = grown(ni, p, cap)
@@ -244,7 +245,8 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
 
 @jit
 def _band_scan(left, visit, q0, row_values, table, x0, inv, nb, order, rx, ry, dmin, dmax,
-               vmax, scale_l, scale_r_sorted, gate, eps, ni, nk, p, n, may_grow, limit):
+               vmax, scale_l, scale_r_sorted, gate, eps, gain_tol, ni, nk, p, n, may_grow,
+               limit):
     """The search of :func:`band_candidates` from ``visit[q0]`` on, into ``ni``/``nk``
     (``p`` pairs written and ``n`` counted so far): returns ``(q, p, n)``; once ``n``
     exceeds ``limit`` it returns at once (``q = len(visit)``).
@@ -297,7 +299,8 @@ def _band_scan(left, visit, q0, row_values, table, x0, inv, nb, order, rx, ry, d
                     ni[p] = i
                     nk[p] = order[t]
                     n += inside
-                    p += inside & contrast_admits(sl, sr, similarity_norm(sl, sr, eps), gate)
+                    p += inside & contrast_admits(sl, sr, similarity_norm(sl, sr, eps), gate,
+                                                  gain_tol)
                 if n > limit:  # past the budget: the caller refuses, counting on is moot
                     return visit.shape[0], p, n
             elif may_grow:
@@ -308,7 +311,8 @@ def _band_scan(left, visit, q0, row_values, table, x0, inv, nb, order, rx, ry, d
                     if d >= dmin and d <= dmax and ry[t] >= y_lo and ry[t] <= y_hi:
                         n += 1
                         sr = scale_r_sorted[t]
-                        if contrast_admits(sl, sr, similarity_norm(sl, sr, eps), gate):
+                        if contrast_admits(sl, sr, similarity_norm(sl, sr, eps), gate,
+                                           gain_tol):
                             if p < cap:
                                 ni[p] = i
                                 nk[p] = order[t]

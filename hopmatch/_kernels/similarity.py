@@ -22,13 +22,25 @@ def similarity_norm(s_i, s_k, eps):
 
 
 @jit
-def contrast_admits(s_i, s_k, norm, gate):
+def gain_within(s_i, s_k, gain_tol):
+    """The relative gain ``g`` by which eq. 7 scales the right window before comparing it
+    with the left one: ``s_i / s_k`` clipped to ``[1 / gain_tol, gain_tol]`` (1 when
+    ``gain_tol`` is 1, as in the paper; 1 for a flat right window)."""
+    if gain_tol <= 1.0 or not s_k > 0.0:
+        return 1.0
+    return min(max(s_i / s_k, 1.0 / gain_tol), gain_tol)
+
+
+@jit
+def contrast_admits(s_i, s_k, norm, gate, gain_tol):
     """Whether the window contrasts ``s_i, s_k`` leave the pair within the similarity
-    ``gate`` (``norm`` = :func:`similarity_norm`): ``|s_i - s_k|`` is a lower bound of
-    ``M_ik`` (eq. 7, triangle inequality), so a pair with ``|s_i - s_k| > gate * norm`` (a
-    margin of 1e-6 for rounding) is certainly past the gate of the normalised distance. The
-    one rule :func:`band_candidates` and :func:`normalised_difference` both apply."""
-    return abs(s_i - s_k) <= gate * norm * (1.0 + 1e-6)
+    ``gate`` (``norm`` = :func:`similarity_norm`): ``|s_i - g s_k|`` (``g`` =
+    :func:`gain_within`) is a lower bound of ``M_ik`` (eq. 7, triangle inequality), so a
+    pair with ``|s_i - g s_k| > gate * norm`` (a margin of 1e-6 for rounding) is certainly
+    past the gate of the normalised distance. The one rule :func:`band_candidates` and
+    :func:`normalised_difference` both apply."""
+    g = gain_within(s_i, s_k, gain_tol)
+    return abs(s_i - g * s_k) <= gate * norm * (1.0 + 1e-6)
 
 
 @jit
@@ -47,10 +59,11 @@ def row_mean_abs(desc):
 
 
 @jit
-def normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, eps, gate):
+def normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, eps, gate, gain_tol):
     """Eq. 7 normalised: ``M_ik / (0.5 (s_i + s_k) + eps)`` for every candidate pair, with
-    ``M_ik = (1/n) sum |V_i(x) - V_k(x')|`` and ``s`` the rows' ``mean |V|``
-    (:func:`row_mean_abs`).
+    ``M_ik = (1/n) sum |V_i(x) - g V_k(x')|``, ``s`` the rows' ``mean |V|``
+    (:func:`row_mean_abs`) and ``g`` the relative gain of the two windows within
+    ``gain_tol`` (:func:`gain_within`; ``gain_tol = 1``: ``g = 1``, eq. 7 as written).
 
     Pairs whose value certainly exceeds ``gate`` (pass ``inf`` for none) get ``inf``
     without the sum: their contrasts alone put them past it (:func:`contrast_admits`, a
@@ -64,14 +77,15 @@ def normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, eps, gate):
         i = ni[p]
         k = nk[p]
         norm = similarity_norm(scale_l[i], scale_r[k], eps)
-        if not contrast_admits(scale_l[i], scale_r[k], norm, gate):
+        if not contrast_admits(scale_l[i], scale_r[k], norm, gate, gain_tol):
             out[p] = np.inf
             continue
+        g = gain_within(scale_l[i], scale_r[k], gain_tol)
         a = desc_l[i]
         b = desc_r[k]
         s = 0.0
         for t in range(dim):
-            s += abs(np.float64(a[t]) - np.float64(b[t]))
+            s += abs(np.float64(a[t]) - g * np.float64(b[t]))
         out[p] = (s / max(dim, 1)) / norm
     return out
 

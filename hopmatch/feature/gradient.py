@@ -108,14 +108,30 @@ def intensity_spread(gray: np.ndarray) -> float:
     """The distance between the :data:`SPREAD_PERCENTILES` of ``gray``'s grey levels, on
     a regular subsample of at most about a million pixels; the standard deviation when
     that distance is 0 (an image that is mostly flat). Proportional to the gain, blind
-    to an offset, whatever the dtype."""
+    to an offset, whatever the dtype.
+
+    Pixels at exactly the image's lowest level are left out when more than half the
+    sample lies above it (and what is left is not flat): the black fill of a warped or
+    rectified view (``cv2.remap``'s border) differs between the two views of one scene,
+    and counted in it would give equal-gain views different scales.
+    """
     step = max(1, int(math.sqrt(gray.size / 2**20)))
     sample = gray[::step, ::step]
-    lo, hi = np.percentile(sample, SPREAD_PERCENTILES)
-    spread = float(hi) - float(lo)
+    inner = sample[sample > sample.min()]
+    spread = 0.0
+    if 2 * inner.size > sample.size:
+        spread = percentile_spread(inner)
+    if not spread > 0.0:
+        spread = percentile_spread(sample)
     if not spread > 0.0:
         spread = float(cv2.meanStdDev(np.ascontiguousarray(sample, np.float32))[1][0, 0])
     return spread
+
+
+def percentile_spread(values: np.ndarray) -> float:
+    """The distance between the :data:`SPREAD_PERCENTILES` of ``values``."""
+    lo, hi = np.percentile(values, SPREAD_PERCENTILES)
+    return float(hi) - float(lo)
 
 
 def normalised_intensity(gray: np.ndarray) -> np.ndarray:

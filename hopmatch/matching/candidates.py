@@ -36,7 +36,7 @@ def left_visit_order(left) -> np.ndarray:
 
 
 def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max_neurons,
-                    fundamental=None, *, sort=True, contrast_gate=None):
+                    fundamental=None, *, sort=True, contrast_gate=None, gain_tolerance=1.0):
     """Neurons: pairs with ``min_disparity <= xl - xr <= max_disparity`` and
     ``|yl - yr| <= max_vertical`` (SPEC section 3's search window), as ``(ni, nk)``.
 
@@ -52,7 +52,8 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
 
     ``contrast_gate=(contrasts, gate)`` (rectified search only; ``contrasts`` from
     :func:`window_contrasts`) leaves out the pairs :func:`similarity_distance` would put past
-    ``gate`` on their contrasts alone; the budget still counts them.
+    ``gate`` on their contrasts alone (with the same ``gain_tolerance``); the budget still
+    counts them.
     """
     band = (np.float32(max(min_disparity, -BAND_LIMIT)), np.float32(min(max_disparity, BAND_LIMIT)),
             np.float32(min(max_vertical, BAND_LIMIT)))
@@ -66,7 +67,7 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
             scale_r = scale_r[index[2]]
         ni, nk, n = _kc.band_candidates(left, left_visit_order(left), *index, *band, budget,
                                        scale_l, np.ascontiguousarray(scale_r, np.float64),
-                                       float(gate), EPS)
+                                       float(gate), EPS, float(gain_tolerance))
     else:
         order = np.argsort(right[:, 0], kind="stable")
         ni, nk, n = _kc.epipolar_candidates(

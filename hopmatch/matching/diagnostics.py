@@ -11,6 +11,7 @@ from ..errors import (
     DisparityRangeWarning,
     FewMatchesWarning,
     ImageSizeWarning,
+    NotStereoPairWarning,  # noqa: F401 (re-exported: its home was here)
     UnrectifiedPairWarning,
 )
 from .candidates import candidate_pairs
@@ -44,13 +45,6 @@ STEREO_WINDOW = 64.0
 STEREO_LOOK_ALIKE = 0.45
 STEREO_MIN_CLEAR = 0.05
 STEREO_MIN_CLOSE = 0.2
-
-
-class NotStereoPairWarning(FewMatchesWarning):
-    """The two images do not look like two views of one scene: almost no left point has a
-    look-alike anywhere near its row in the right image (see
-    :func:`stereo_pair_evidence`). A :class:`~hopmatch.errors.FewMatchesWarning` whose
-    cause is that diagnosis."""
 
 
 # Few matches (docs/robustness.md): a pair with at least FEW_MATCHES_MIN_POINTS keypoints a

@@ -42,7 +42,7 @@ MAX_TRIMMED = 0.02
 #: hi * RANGE_FACTOR]`` for positive disparities) ...
 RANGE_FACTOR = 1.5
 #: ... and by this fraction of the width plus :data:`RANGE_PIXELS` on both sides.
-RANGE_MARGIN = 0.01
+RANGE_MARGIN = 0.015
 RANGE_PIXELS = 2.0
 
 

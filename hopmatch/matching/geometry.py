@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..errors import BudgetExceededError, HopmatchWarning
+from ..errors import BudgetExceededError, GeometryWarning  # noqa: F401 (re-exported)
 from .candidates import candidate_pairs
 from .disparity_range import thin_points
 from .similarity import similarity_distance
@@ -56,13 +56,6 @@ WINDOW_FRACTION = 0.12
 WINDOW_MIN = 32.0
 DESCRIPTOR_RATIO = 0.8
 DESCRIPTOR_MAX_PAIRS = 6_000_000
-
-
-class GeometryWarning(HopmatchWarning):
-    """No epipolar geometry could be estimated from the pair (``match_stereo(...,
-    rectified=False)``, ``HopfieldMatcher.estimateFundamentalMatrix``): too few
-    correspondences, or too few of them agree on one fundamental matrix. The result is
-    empty (no matches) rather than built on a wrong F."""
 
 
 @dataclass(frozen=True)

@@ -114,7 +114,8 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     ti = np.asarray(train_idx, dtype=np.int64)
     m_left = np.ascontiguousarray(pts_l[qi], dtype=np.float32)
     m_right = np.ascontiguousarray(pts_r[ti], dtype=np.float32)
-    m_sim = similarity_distance(desc_l, desc_r, qi, ti)
+    m_sim = similarity_distance(desc_l, desc_r, qi, ti,
+                                gain_tolerance=config.gain_tolerance)
     matched = np.zeros(n_left, dtype=bool)
     matched[qi] = True
     queries = np.flatnonzero(~matched)

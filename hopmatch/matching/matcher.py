@@ -202,7 +202,7 @@ class HopfieldMatcher(Configurable):
             ``inliers``. When the correspondences support no F (too few, or too few
             agreeing, or no more than agree by chance: images without texture, or of
             different scenes), ``fundamental`` is None, ``reason`` says why, a
-            :class:`~hopmatch.matching.geometry.GeometryWarning` is issued and the matcher's
+            :class:`~hopmatch.errors.GeometryWarning` is issued and the matcher's
             fundamental matrix is left as it was.
 
         Examples

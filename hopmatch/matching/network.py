@@ -159,12 +159,13 @@ def run_hopfield_network(left, right, desc_l, desc_r, config: MatcherConfig, *, 
     ni, nk = candidate_pairs(
         left, right, c.min_disparity, c.max_disparity, c.max_vertical,
         c.max_neurons, fundamental, sort=False,
-        contrast_gate=None if contrasts is None or gate is None else (contrasts, gate))
+        contrast_gate=None if contrasts is None or gate is None else (contrasts, gate),
+        gain_tolerance=c.gain_tolerance)
     if mask is not None and len(ni):
         keep = mask[ni, nk]
         ni, nk = ni[keep], nk[keep]
-    sim = (similarity_distance(desc_l, desc_r, ni, nk, gate, contrasts) if len(ni)
-           else np.zeros(0))
+    sim = (similarity_distance(desc_l, desc_r, ni, nk, gate, contrasts, c.gain_tolerance)
+           if len(ni) else np.zeros(0))
     ni, nk, sim = _kc.group_by_left(ni, nk, sim, nl, gate is not None,
                                    0.0 if gate is None else float(gate))
     _kc.sort_groups(ni, nk, sim)

@@ -45,6 +45,10 @@ MATCHER_PARAMS: tuple[Param, ...] = (
     Param("similarity_gate", 0.45, real(0.0, optional=True), doc=(
         "Candidates whose normalised similarity distance exceeds it get no neuron (about "
         "1 for unrelated windows); None: no gate, as in the paper")),
+    Param("gain_tolerance", 1.1, real(1.0, 1e6), doc=(
+        "Relative gain of two windows that eq. 7 allows for: the right window is scaled by "
+        "the ratio of their contrasts, clipped to [1/t, t], before the difference (1: eq. "
+        "7 as written, as in the paper)")),
     Param("max_candidates", 0, integer(0), doc=(
         "Keep only this many most similar candidates of each left point (0: all)")),
     # energy, eq. 11
@@ -123,6 +127,7 @@ PRESETS: dict[str, dict] = {
         "slope": 1.0,
         "similarity_weight": 1.0,
         "similarity_gate": None,
+        "gain_tolerance": 1.0,
         "max_candidates": 0,
         "input_bias": 2.0,
         "initial_bias": None,

@@ -20,7 +20,7 @@ def window_contrasts(desc_l: np.ndarray, desc_r: np.ndarray):
 
 def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
                         nk: np.ndarray, gate: float | None = None,
-                        contrasts=None) -> np.ndarray:
+                        contrasts=None, gain_tolerance: float = 1.0) -> np.ndarray:
     """Normalised similarity distance of each candidate pair (eqs. 7-9).
 
     Float descriptors: ``M_ik`` of eq. 7 (mean absolute difference of the mean-subtracted
@@ -32,12 +32,19 @@ def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
     With a ``gate``, float pairs whose distance certainly exceeds it (their contrasts
     differ too much) are given ``inf`` without computing it; the others are exact.
     ``contrasts``: :func:`window_contrasts` of the descriptors, if already computed.
+
+    ``gain_tolerance`` (>= 1; the matcher's ``gain_tolerance``): before the difference, the
+    right window is scaled by the ratio of the two contrasts, clipped to
+    ``[1 / gain_tolerance, gain_tolerance]``, so that two views of one surface whose gain
+    differs by less than that compare as equal; a larger contrast difference still counts.
+    1 is eq. 7 as written.
     """
     if desc_l.dtype == np.uint8:
         return _ks.hamming_fraction(desc_l, desc_r, ni, nk)
     scale_l, scale_r = contrasts if contrasts is not None else window_contrasts(desc_l, desc_r)
     return _ks.normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, EPS,
-                                    np.inf if gate is None else float(gate))
+                                    np.inf if gate is None else float(gate),
+                                    float(gain_tolerance))
 
 
 #: The zero-mean test of window rows: ``|mean| <= WINDOW_MEAN_TOL[0] * mean |x| + [1]``.

@@ -186,7 +186,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         (``hopmatch.matching.unrectified``; docs/pipelines.md). The result then carries
         ``fundamental_matrix`` and ``geometry``; when the pair supports no geometry (no
         texture, unrelated images) it is empty and a
-        :class:`~hopmatch.matching.geometry.GeometryWarning` says why. Cannot be combined
+        :class:`~hopmatch.errors.GeometryWarning` says why. Cannot be combined
         with ``fundamental_matrix`` or a disparity range (it finds its own). Unless given
         (as a keyword), ``vertical_threshold`` is then
         :data:`~hopmatch.matching.unrectified.UNRECTIFIED_VERTICAL`.

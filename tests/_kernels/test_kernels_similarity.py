@@ -22,14 +22,34 @@ class TestSimilarity:
         nk = rng.integers(0, 30, 200).astype(np.int32)
         sa, sb = _k.row_mean_abs(a), _k.row_mean_abs(b)
         assert np.allclose(sa, np.abs(a.astype(np.float64)).mean(axis=1), rtol=1e-12)
-        got = _k.normalised_difference(a, b, ni, nk, sa, sb, 1e-6, np.inf)
+        got = _k.normalised_difference(a, b, ni, nk, sa, sb, 1e-6, np.inf, 1.0)
         m = np.abs(a[ni].astype(np.float64) - b[nk]).mean(axis=1)
         want = m / (0.5 * (sa[ni] + sb[nk]) + 1e-6)
         assert got.dtype == np.float64
         assert np.allclose(got, want, rtol=1e-12, atol=0)
 
-    @pytest.mark.parametrize("gate", [0.0, 0.3, 0.9, 1.1])
-    def test_gate_keeps_exactly_the_pairs_within_it(self, gate):
+    @pytest.mark.parametrize("tol", [1.0, 1.1, 1.5])
+    def test_gain_tolerance_equals_reference(self, tol):
+        """Eq. 7 with the right window scaled by the contrast ratio clipped to [1/t, t]
+        (tests/naive.py), and a right window at a gain within t of the left compares as
+        equal: distance 0 up to rounding."""
+        rng = np.random.default_rng(7)
+        a = rng.normal(size=(20, 25)).astype(np.float32)
+        b = np.concatenate([a * np.float32(g) for g in (0.5, 0.95, 1.0, 1.08, 1.3, 3.0)]
+                           + [rng.normal(size=(20, 25)).astype(np.float32)])
+        ni = np.repeat(np.arange(20, dtype=np.int32), 7)
+        nk = (ni + 20 * np.tile(np.arange(7, dtype=np.int32), 20)).astype(np.int32)
+        got = similarity_distance(a, b, ni, nk, gain_tolerance=tol)
+        want = [naive.similarity(a[i], b[k], gain_tolerance=tol) for i, k in zip(ni, nk)]
+        np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
+        gains = np.tile([0.5, 0.95, 1.0, 1.08, 1.3, 3.0, np.nan], 20)
+        inside = np.abs(np.log(gains)) <= np.log(tol) + 1e-9
+        assert (got[inside] < 1e-5).all()
+        assert (got[~inside & np.isfinite(gains)] > 0.01).all()
+
+    @pytest.mark.parametrize("gate, tol", [(0.0, 1.0), (0.3, 1.0), (0.9, 1.0), (1.1, 1.0),
+                                           (0.05, 1.1), (0.3, 1.1), (0.3, 2.0)])
+    def test_gate_keeps_exactly_the_pairs_within_it(self, gate, tol):
         rng = np.random.default_rng(4)
         a = rng.normal(size=(30, 81)).astype(np.float32)
         b = np.concatenate([a + rng.normal(scale=s, size=a.shape).astype(np.float32)
@@ -37,16 +57,17 @@ class TestSimilarity:
         b[::7] *= 3.0                                   # contrast changes: the lower bound
         ni = np.repeat(np.arange(30, dtype=np.int32), 40)
         nk = rng.integers(0, len(b), len(ni)).astype(np.int32)
-        full = similarity_distance(a, b, ni, nk)
-        gated = similarity_distance(a, b, ni, nk, gate)
+        full = similarity_distance(a, b, ni, nk, gain_tolerance=tol)
+        gated = similarity_distance(a, b, ni, nk, gate, gain_tolerance=tol)
         within = full <= gate
         assert 0 < within.sum() < len(ni) or gate == 0.0
         assert np.array_equal(gated[within], full[within])   # exact, not approximate
         assert (gated[~within] > gate).all()
         assert np.isinf(gated[~within]).any()                    # some skipped by the bound
 
-    @pytest.mark.parametrize("gate", [0.0, 0.3, 0.9, np.inf])
-    def test_band_leaves_out_exactly_the_pairs_the_contrast_bound_rejects(self, gate):
+    @pytest.mark.parametrize("gate, tol", [(0.0, 1.0), (0.3, 1.0), (0.9, 1.0), (np.inf, 1.0),
+                                           (0.3, 1.1), (0.9, 1.5)])
+    def test_band_leaves_out_exactly_the_pairs_the_contrast_bound_rejects(self, gate, tol):
         """``contrast_gate`` drops, before they are written, the band pairs whose contrasts
         alone put them past the gate: what is left is every pair whose similarity can be
         within the gate, and the budget still counts the whole band."""
@@ -57,8 +78,8 @@ class TestSimilarity:
         contrasts = window_contrasts(dl, dr)
         ni, nk = candidate_pairs(left, right, 0.0, 20.0, 2.0, 10**6)
         gi, gk = candidate_pairs(left, right, 0.0, 20.0, 2.0, 10**6,
-                                 contrast_gate=(contrasts, gate))
-        sim = similarity_distance(dl, dr, ni, nk, gate)
+                                 contrast_gate=(contrasts, gate), gain_tolerance=tol)
+        sim = similarity_distance(dl, dr, ni, nk, gate, gain_tolerance=tol)
         plain = set(zip(ni.tolist(), nk.tolist()))
         kept = set(zip(gi.tolist(), gk.tolist()))
         assert kept <= plain and len(gi) == len(kept)

@@ -53,9 +53,11 @@ def test_match_stereo_warns_at_the_caller():
 
 def test_resolved_parameters_are_recorded():
     res = hopmatch.hopfield_match(PTS, PTS, DESC, DESC, image_size=(200, 100))
-    # PTS matched to themselves: the coarse pass finds disparity 0, widened by 1 % of the
-    # width + 2 px (hopmatch.matching.disparity_range)
-    assert res.config.max_disparity == 4.0 and res.config.min_disparity == 0.0
+    # PTS matched to themselves: the coarse pass finds disparity 0, widened by
+    # RANGE_MARGIN of the width + RANGE_PIXELS (hopmatch.matching.disparity_range)
+    from hopmatch.matching import disparity_range as dr
+    assert res.config.max_disparity == 200 * dr.RANGE_MARGIN + dr.RANGE_PIXELS
+    assert res.config.min_disparity == 0.0
     assert res.config.theta == hopmatch.HopfieldMatcher().getTheta()
     paper = hopmatch.hopfield_match(PTS, PTS, DESC, DESC, preset="paper")
     assert paper.config.max_disparity == 30.0 and paper.config.preset == "paper"

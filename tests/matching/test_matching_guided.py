@@ -130,7 +130,8 @@ def test_guided_matches_pass_every_acceptance_test():
     # refinement (test_matching_refine.py) does better
     np.testing.assert_allclose(pl[gm.query_idx, 0] - gm.right_points[:, 0], 6.0, atol=0.3)
     ml, mr = pl[qi], pr[ti]
-    msim = similarity_distance(dl, dr, qi.astype(np.int64), ti.astype(np.int64))
+    msim = similarity_distance(dl, dr, qi.astype(np.int64), ti.astype(np.int64),
+                               gain_tolerance=config.gain_tolerance)
     disp = ml[:, 0].astype(np.float64) - mr[:, 0]
     nb = ng.neighbours(pl[gm.query_idx], ml, config.neighbour_width / 2,
                        config.neighbour_height / 2)
