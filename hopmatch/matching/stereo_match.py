@@ -7,7 +7,6 @@ import time
 from dataclasses import dataclass, field
 from functools import cached_property
 
-import cv2
 import numpy as np
 
 from .._validate import as_fundamental_matrix, check_coordinate_range
@@ -16,7 +15,7 @@ from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
 from .geometry import EpipolarGeometry, GeometryWarning
 from .guided import GuidedMatches, guided_pass
-from .matcher import HopfieldMatcher
+from .matcher import HopfieldMatcher, dmatches
 from .network import NetworkResult, PairInfo, match_pair
 from .params import MatcherConfig, matcher_config
 from .refine import Refinement, refine_disparities
@@ -157,10 +156,7 @@ class StereoMatchResult:
     @cached_property
     def matches(self) -> tuple:
         """The matches as ``cv2.DMatch`` (built on first access)."""
-        return tuple(
-            cv2.DMatch(q, t, d) for q, t, d in zip(
-                self.query_idx.tolist(), self.train_idx.tolist(), self.distances.tolist())
-        )
+        return dmatches(self.query_idx, self.train_idx, self.distances)
 
 
 def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_matrix=None,
