@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._kernels import similarity as _ks
+from .._threads import map_chunks
 
 #: Regulariser of eq. 7's normalisation (added to the windows' mean contrast).
 EPS = 1e-6
@@ -32,12 +33,16 @@ def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
     With a ``gate``, float pairs whose distance certainly exceeds it (their contrasts
     differ too much) are given ``inf`` without computing it; the others are exact.
     ``contrasts``: :func:`window_contrasts` of the descriptors, if already computed.
+    Float pairs are computed in :func:`hopmatch._threads.current_threads` threads (each
+    pair on its own: bit-identical for any count).
     """
     if desc_l.dtype == np.uint8:
         return _ks.hamming_fraction(desc_l, desc_r, ni, nk)
     scale_l, scale_r = contrasts if contrasts is not None else window_contrasts(desc_l, desc_r)
-    return _ks.normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, EPS,
-                                    np.inf if gate is None else float(gate))
+    gate = np.inf if gate is None else float(gate)
+    return map_chunks(lambda i, k: (_ks.normalised_difference(desc_l, desc_r, i, k, scale_l,
+                                                              scale_r, EPS, gate),),
+                      (ni, nk))[0]
 
 
 #: The zero-mean test of window rows: ``|mean| <= WINDOW_MEAN_TOL[0] * mean |x| + [1]``.
