@@ -117,8 +117,9 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     n_left = len(pts_l)
     if len(query_idx) == 0 or n_left == 0 or desc_l.dtype == np.uint8:
         return empty_guided()
-    qi = np.asarray(query_idx, dtype=np.int64)
-    ti = np.asarray(train_idx, dtype=np.int64)
+    # int32, as the network's own candidate pairs: one compiled similarity kernel, not two
+    qi = np.ascontiguousarray(query_idx, dtype=np.int32)
+    ti = np.ascontiguousarray(train_idx, dtype=np.int32)
     m_left = np.ascontiguousarray(pts_l[qi], dtype=np.float32)
     m_right = np.ascontiguousarray(pts_r[ti], dtype=np.float32)
     m_sim = similarity_distance(desc_l, desc_r, qi, ti)
