@@ -90,6 +90,37 @@ print(json.dumps({"import": t1 - t0, "warmup": t3 - t2, "first_match": t4 - t3,
 GOALS = {"notice": 3.0, "first_match": 6.0, "warmup": 12.0}
 
 
+#: The section on the first run, with this run's figures.
+FIRST_RUN = """
+### The first run
+
+hopmatch's kernels are compiled by Numba for the CPU they run on, the first time they are
+needed, and kept in Numba's on-disk cache (`NUMBA_CACHE_DIR`, else next to the package).
+On this machine compiling all of them ({n} kernel specialisations, `hopmatch.warmup()`) took {warmup:.1f} s
+with an empty cache, and a new user's first `match_stereo`, which compiles the ones it
+needs, {first:.1f} s; with the cache filled, `warmup()` takes {warm:.2f} s. The moment
+compilation starts, one line says so on stderr, once per process and from every entry
+point (the CLI, `match_stereo`, the classes): `hopmatch: compiling hopmatch's kernels for
+this CPU, first run only, about N s` (here after {notice} s; it is driven by Numba's
+`numba:compile` events, which fire on compilation and never on a cache load, so a warm
+cache prints nothing wherever `NUMBA_CACHE_DIR` points; `HOPMATCH_COMPILE_NOTICE=0`
+silences it).
+
+To pay the compilation once, when an image is built rather than in every container or CI
+job, set `NUMBA_CACHE_DIR` to a folder that ships with the image and run `hopmatch warmup`
+there (it compiles every kernel and prints the time):
+
+```dockerfile
+ENV NUMBA_CACHE_DIR=/opt/hopmatch-numba-cache
+RUN pip install hopmatch && hopmatch warmup
+```
+
+In CI, cache that folder between jobs (keyed on the hopmatch, Numba and Python versions
+and the runner's CPU): the machine code is specific to the CPU model Numba compiled for,
+and a cache made on another CPU is recompiled, with the notice, on first use.
+"""
+
+
 def run(cache_dir: str | None, mode: str = "warmup") -> dict:
     """Times of a fresh interpreter with ``NUMBA_CACHE_DIR=cache_dir`` (None: as set now);
     ``mode`` "warmup" calls ``hopmatch.warmup()`` before the first ``match_stereo``,
@@ -151,6 +182,9 @@ def main(argv=None) -> None:
         for key, label in (("notice", "first line printed"),
                            ("first_match", "cold first match_stereo"),
                            ("warmup", "cold warmup() (this machine)"))))
+    print(FIRST_RUN.format(warmup=cold["warmup"], first=first["first_match"],
+                           notice="-" if notice is None else f"{notice:.1f}",
+                           warm=warm["warmup"], n=len(kernels) - 1))
     if args.smoke:
         print("\n(--smoke: both rows loaded the kernels from the default cache; nothing was "
               "compiled)")
