@@ -195,8 +195,10 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         untouched). Parameters of a part given as an instance cannot also be passed as
         keywords.
     threads : int, optional
-        Threads to use: the left and right detection run concurrently, and the guided
-        pass and the refinement split their points between threads. None (default):
+        Threads to use: the left and right detection run concurrently, and the
+        similarity of the candidate pairs, the guided pass and the refinement split their
+        points between threads (rectified pairs; with ``rectified=False`` only the
+        similarity does). None (default):
         :func:`hopmatch.getNumThreads` (every core unless :func:`hopmatch.setNumThreads`
         said otherwise, as OpenCV does). Results are bit-identical for any count; peak
         memory of the detection is that of both images at once with 2 or more.
@@ -253,8 +255,9 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     if not rectified:
         if matcher is None and "vertical_threshold" not in match_params:
             config = dataclasses.replace(config, vertical_threshold=UNRECTIFIED_VERTICAL)
-        return _match_unrectified(left, right, detector, config, fundamental, mask_left,
-                                  mask_right, record_energy)
+        with using_threads(threads):
+            return _match_unrectified(left, right, detector, config, fundamental, mask_left,
+                                      mask_right, record_energy)
 
     def detect(image, mask, side):
         t0 = time.perf_counter()
