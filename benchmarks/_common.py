@@ -65,8 +65,12 @@ def smoke_scenes(names) -> list:
 
 
 def single_thread() -> None:
-    """Pin OpenCV to one thread (Numba kernels are single-threaded already)."""
+    """Pin OpenCV and hopmatch to one thread (``cv2.setNumThreads(1)``,
+    ``hopmatch.setNumThreads(1)``); rows with more threads pass ``threads=`` explicitly."""
+    import hopmatch
+
     cv2.setNumThreads(1)
+    hopmatch.setNumThreads(1)
 
 
 def best_time(fn, repeat: int = 7, warmup: int = 1) -> float:

@@ -24,6 +24,7 @@ import importlib
 from importlib.metadata import PackageNotFoundError, version
 
 from . import errors
+from ._threads import getNumThreads, setNumThreads
 from .feature import (
     DericheMoravecDetector,
     deriche_gradient,
@@ -59,6 +60,8 @@ __all__ = [
     "warmup",
     "deriche_gradient",
     "errors",
+    "getNumThreads",
+    "setNumThreads",
     "gradient_windows",
     "moravec_points",
     "moravec_response",

@@ -12,18 +12,33 @@
 - Every kernel is ``nogil``, so hopmatch objects can run in concurrent threads.
 - A helper whose callers must round as if its body were written in place is compiled
   ``jit(inline=True)`` (inlined in Numba's IR, before fastmath can reassociate it apart).
+- The moment Numba starts compiling one of hopmatch's kernels (not when it loads one from
+  the cache), one line says so on stderr, once per process (:class:`CompileNotice`);
+  ``HOPMATCH_COMPILE_NOTICE=0`` silences it.
 """
 
 from __future__ import annotations
 
 import os
+import sys
+import threading
 from pathlib import Path
 
 import numba
+from numba.core import event as numba_event
 
 FASTMATH: frozenset[str] = frozenset({"nsz", "arcp", "contract", "afn", "reassoc"})
+
+#: Seconds of the "about N s" in the first-run notice: what compiling every kernel
+#: (``hopmatch.warmup()`` with an empty cache) takes on a 2-core machine; see the section
+#: "The first run" of docs/performance.md for the measurements.
+COMPILE_SECONDS = 25
+
+_OFF = {"0", "false", "no", "off"}
+
+
 def _cache_wanted() -> bool:
-    if os.environ.get("HOPMATCH_NUMBA_CACHE", "1").strip().lower() in {"0", "false", "no"}:
+    if os.environ.get("HOPMATCH_NUMBA_CACHE", "1").strip().lower() in _OFF:
         return False
     if os.environ.get("NUMBA_CACHE_DIR"):
         return True
@@ -31,6 +46,64 @@ def _cache_wanted() -> bool:
 
 
 CACHE: bool = _cache_wanted()
+
+
+def compile_notice_text() -> str:
+    """The line :class:`CompileNotice` writes (without the newline)."""
+    if CACHE:
+        where = os.environ.get("NUMBA_CACHE_DIR") or "the package folder"
+        return (f"hopmatch: compiling hopmatch's kernels for this CPU, first run only, about "
+                f"{COMPILE_SECONDS} s (cached in {where}; `hopmatch warmup` compiles them all "
+                "ahead)")
+    return (f"hopmatch: compiling hopmatch's kernels for this CPU, about {COMPILE_SECONDS} s "
+            "(the on-disk cache is off, so every process compiles them; set NUMBA_CACHE_DIR "
+            "to a writable folder to keep them)")
+
+
+class CompileNotice(numba_event.Listener):
+    """Writes :func:`compile_notice_text` to stderr when Numba starts compiling a kernel of
+    hopmatch, once per process.
+
+    Numba broadcasts a ``"numba:compile"`` event only when it compiles a specialisation,
+    never when it loads one from the on-disk cache (``Dispatcher.compile`` returns the
+    cached entry point before the event), so a warm cache prints nothing, wherever
+    ``NUMBA_CACHE_DIR`` points. Kernels of other packages are ignored.
+    """
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self.shown = False
+
+    @staticmethod
+    def is_ours(ev) -> bool:
+        data = ev.data if isinstance(ev.data, dict) else {}
+        func = getattr(data.get("dispatcher"), "py_func", None)
+        return (getattr(func, "__module__", None) or "").split(".")[0] == "hopmatch"
+
+    def on_start(self, ev) -> None:
+        if self.shown or not self.is_ours(ev):
+            return
+        with self._lock:
+            if self.shown:
+                return
+            self.shown = True
+        if os.environ.get("HOPMATCH_COMPILE_NOTICE", "1").strip().lower() in _OFF:
+            return
+        try:
+            stream = sys.stderr
+            clear = "\r\033[K" if stream.isatty() else ""  # over a CLI status line
+            stream.write(f"{clear}{compile_notice_text()}\n")
+            stream.flush()
+        except (AttributeError, OSError, ValueError):  # no usable stderr (pythonw, closed)
+            pass
+
+    def on_end(self, ev) -> None:
+        pass
+
+
+#: The listener of this process, registered before any kernel is defined.
+COMPILE_NOTICE = CompileNotice()
+numba_event.register("numba:compile", COMPILE_NOTICE)
 
 
 def jit(*signature, exact: bool = False, inline: bool = False):

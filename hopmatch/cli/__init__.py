@@ -1,4 +1,4 @@
-"""The ``hopmatch`` command line: demo, match, detect, eval and batch.
+"""The ``hopmatch`` command line: demo, match, detect, eval, warmup and batch.
 
 Usage::
 
@@ -9,6 +9,7 @@ Usage::
     hopmatch detect IMAGE --out DIR [--window-size N ...]
     hopmatch eval [--scene NAME ...] [--method NAME ...] [--out DIR] [--docs] [--draw]
                   [--repeat N]
+    hopmatch warmup                     (compile every Numba kernel into the cache now)
     hopmatch batch PAIRS.csv --out DIR [--scheduler ADDRESS] [--workers N]
                    [--window-size N ...]          (plugin hopmatch_dask: hopmatch[dask])
     hopmatch --version | --help | COMMAND --help
@@ -33,7 +34,7 @@ Progress is a status line on stderr, shown only when stderr is a terminal and no
 Modules: :mod:`~hopmatch.cli.options` (options generated from the parameters),
 :mod:`~hopmatch.cli.outputs` (images in, staged output folder, run.json),
 :mod:`~hopmatch.cli.reporting` (status line, errors), :mod:`~hopmatch.cli.group` (the
-command group and its plugins), :mod:`~hopmatch.cli.commands` (demo, match, detect) and
+command group and its plugins), :mod:`~hopmatch.cli.commands` (demo, match, detect, warmup) and
 :mod:`~hopmatch.cli.eval_command` (eval).
 """
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from itertools import compress, repeat, starmap
 
 import cv2
 import numpy as np
@@ -16,11 +17,18 @@ from .moravec import response, select_points
 
 
 def keypoints_from_arrays(points: np.ndarray, responses: np.ndarray, size: float):
-    """A tuple of ``cv2.KeyPoint`` (angle -1, octave 0, class_id -1) from (x, y) and responses."""
-    return tuple(
-        cv2.KeyPoint(x, y, size, -1.0, r, 0, -1)
-        for (x, y), r in zip(points.tolist(), responses.tolist())
-    )
+    """A tuple of ``cv2.KeyPoint`` (angle -1, octave 0, class_id -1) from (x, y) and responses.
+
+    Built in bulk: ``cv2.KeyPoint`` called from C (``itertools.starmap``) on flat lists of
+    the columns, so that no per-point Python frame or (x, y) list is made (the lists would
+    also wake the cyclic garbage collector every 700 points). ``cv2.KeyPoint_convert``
+    cannot set one response per point. Each keypoint holds exactly the float32 ``pt``,
+    ``size`` and ``response`` given.
+    """
+    pts = np.asarray(points, dtype=np.float32).reshape(-1, 2)
+    return tuple(starmap(cv2.KeyPoint, zip(
+        pts[:, 0].tolist(), pts[:, 1].tolist(), repeat(float(size)), repeat(-1.0),
+        np.asarray(responses, dtype=np.float32).tolist())))
 
 
 class DericheMoravecDetector(Configurable):
@@ -201,13 +209,16 @@ class DericheMoravecDetector(Configurable):
                 )
             out = [self.compute(im, kp) for im, kp in zip(image, keypoints)]
             return [o[0] for o in out], [o[1] for o in out]
-        keypoints = _as_keypoint_tuple(keypoints)  # check before the costly gradient
-        return self._describe_keypoints(self.feature_image(image), keypoints)
+        keypoints, pts = _as_keypoint_tuple(keypoints)  # check before the costly gradient
+        return self._describe_keypoints(self.feature_image(image), keypoints, pts)
 
-    def _describe_keypoints(self, g, keypoints: tuple):
-        pts = as_points(keypoints, "keypoints") if keypoints else np.zeros((0, 2), np.float32)
+    def _describe_keypoints(self, g, keypoints: tuple, pts: np.ndarray):
+        """``(kept keypoints, descriptors)`` of ``keypoints`` at their positions ``pts``
+        (read by :func:`_as_keypoint_tuple` in this call)."""
         keep, desc = self.describe_points(g, pts)
-        return tuple(kp for kp, k in zip(keypoints, keep.tolist()) if k), desc
+        if keep.all():
+            return keypoints, desc
+        return tuple(compress(keypoints, keep.tolist())), desc
 
     def detectAndCompute(self, image, mask=None, descriptors=None,  # noqa: N802
                          useProvidedKeypoints=False, keypoints=None):  # noqa: N803
@@ -220,8 +231,8 @@ class DericheMoravecDetector(Configurable):
                 raise InvalidArgumentError(
                     "`keypoints` must be given when useProvidedKeypoints=True"
                 )
-            keypoints = _as_keypoint_tuple(keypoints)
-            return self._describe_keypoints(self.feature_image(image), keypoints)
+            keypoints, pts = _as_keypoint_tuple(keypoints)
+            return self._describe_keypoints(self.feature_image(image), keypoints, pts)
         pts, resp, desc, _ = self.detect_and_describe(image, mask)
         return self.keypoints(pts, resp), desc
 
@@ -254,10 +265,13 @@ def _per_image(mask, n):
 
 
 def _as_keypoint_tuple(keypoints):
+    """``(keypoints as a tuple, their (N, 2) float32 positions)``, or
+    :class:`InvalidTypeError` naming ``keypoints``. The positions are read from the
+    keypoints in this call (``KeyPoint.pt`` is writable: nothing is cached between calls)."""
     if keypoints is None:
         raise InvalidTypeError("`keypoints` must be a sequence of cv2.KeyPoint, got None")
     if isinstance(keypoints, cv2.KeyPoint):
-        return (keypoints,)
+        keypoints = (keypoints,)
     if not isinstance(keypoints, Sequence) or isinstance(keypoints, (str, bytes)):
         hint = ("; convert an (N, 2) array with cv2.KeyPoint_convert(points)"
                 if isinstance(keypoints, np.ndarray) else "")
@@ -265,10 +279,17 @@ def _as_keypoint_tuple(keypoints):
             f"`keypoints` must be a sequence of cv2.KeyPoint, got {type(keypoints).__name__}"
             f"{hint}"
         )
-    bad = next((kp for kp in keypoints if not isinstance(kp, cv2.KeyPoint)), None)
-    if bad is not None:
-        raise InvalidTypeError(
-            "`keypoints` must hold only cv2.KeyPoint objects, got a "
-            f"{type(bad).__name__}; convert (x, y) pairs with cv2.KeyPoint_convert(points)"
-        )
-    return tuple(keypoints)
+    keypoints = tuple(keypoints)
+    if not keypoints:
+        return keypoints, np.zeros((0, 2), np.float32)
+    if isinstance(keypoints[0], cv2.KeyPoint):
+        try:  # converts and checks every item's type in one cv2 call
+            return keypoints, as_points(keypoints, "keypoints")
+        except InvalidTypeError:
+            if all(isinstance(kp, cv2.KeyPoint) for kp in keypoints):
+                raise
+    bad = next(kp for kp in keypoints if not isinstance(kp, cv2.KeyPoint))
+    raise InvalidTypeError(
+        "`keypoints` must hold only cv2.KeyPoint objects, got a "
+        f"{type(bad).__name__}; convert (x, y) pairs with cv2.KeyPoint_convert(points)"
+    )

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._kernels import guided as _k
+from .._threads import map_chunks
 from .similarity import EPS, match_distance, similarity_distance
 
 #: Largest distance (px) between the peak of the row search and the predicted disparity.
@@ -73,7 +74,8 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
                 config, *, margin: float = 0.1, radius: float = GUIDED_RADIUS,
                 search: int = GUIDED_SEARCH, back: int = GUIDED_BACK,
                 min_zncc: float = GUIDED_MIN_ZNCC,
-                min_support: int = GUIDED_MIN_SUPPORT) -> GuidedMatches:
+                min_support: int = GUIDED_MIN_SUPPORT,
+                threads: int | None = None) -> GuidedMatches:
     """Guided matches of the left points the network left unmatched (rectified pairs).
 
     Parameters
@@ -98,6 +100,11 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
         ``+-search`` px (the uniqueness margin).
     radius, search, back, min_zncc, min_support
         See the module constants.
+    threads : int, optional
+        Search the queries in up to this many threads (None:
+        :func:`hopmatch._threads.current_threads`), in contiguous chunks; each query's
+        search is independent of the others', so results are bit-identical for any count
+        (:func:`hopmatch._threads.map_chunks`).
 
     Returns
     -------
@@ -110,8 +117,9 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     n_left = len(pts_l)
     if len(query_idx) == 0 or n_left == 0 or desc_l.dtype == np.uint8:
         return empty_guided()
-    qi = np.asarray(query_idx, dtype=np.int64)
-    ti = np.asarray(train_idx, dtype=np.int64)
+    # int32, as the network's own candidate pairs: one compiled similarity kernel, not two
+    qi = np.ascontiguousarray(query_idx, dtype=np.int32)
+    ti = np.ascontiguousarray(train_idx, dtype=np.int32)
     m_left = np.ascontiguousarray(pts_l[qi], dtype=np.float32)
     m_right = np.ascontiguousarray(pts_r[ti], dtype=np.float32)
     m_sim = similarity_distance(desc_l, desc_r, qi, ti,
@@ -129,9 +137,12 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     pred = _k.neighbour_medians(off, idx, disp)[rows]
     q = queries[rows].astype(np.int64)
     yoff = np.ascontiguousarray(np.asarray(y_offset, dtype=np.float64)[q])
-    status, best, second, xr, sim = _k.row_search(
-        g_l, g_r, pts_l, desc_l, q, pts_l[q, 0].astype(np.float64) - pred, yoff,
-        float(radius), int(search), int(back), float(min_zncc), float(margin), EPS)
+    centre = np.ascontiguousarray(pts_l[q, 0].astype(np.float64) - pred)
+    status, best, second, xr, sim = map_chunks(
+        lambda qs, cs, ys: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys, float(radius),
+                                         int(search), int(back), float(min_zncc),
+                                         float(margin), EPS),
+        (q, centre, yoff), threads)
     ok = status == _k.FOUND
     yr = pts_l[q, 1].astype(np.float64) - yoff
     u = _k.continuity_field(np.ascontiguousarray(pts_l[q]), np.where(ok, xr, np.nan), yr,

@@ -45,7 +45,17 @@ from .network import NetworkResult, PairInfo, hopfield_match, match_pair
 from .params import MATCHER_PARAMS, PRESETS, MatcherConfig, check_disparity_order
 from .similarity import match_distance
 
-__all__ = ["HopfieldMatcher", "hopfield_match", "ranked_candidates"]
+__all__ = ["HopfieldMatcher", "dmatches", "hopfield_match", "ranked_candidates"]
+
+
+def dmatches(query_idx, train_idx, distances) -> tuple:
+    """A tuple of ``cv2.DMatch(query_idx[m], train_idx[m], distances[m])`` (imgIdx -1).
+
+    Built in bulk: ``cv2.DMatch`` called from C (``map``) on flat lists, about half the
+    time of a generator that calls it per match.
+    """
+    return tuple(map(cv2.DMatch, np.asarray(query_idx).tolist(),
+                     np.asarray(train_idx).tolist(), np.asarray(distances).tolist()))
 
 
 def ranked_candidates(res: NetworkResult, n_query: int) -> list[tuple[list, list]]:
@@ -284,11 +294,7 @@ class HopfieldMatcher(Configurable):
         ordered by queryIdx.
         """
         res = self._run(queryDescriptors, trainDescriptors, mask)[0]
-        return tuple(
-            cv2.DMatch(int(q), int(t), float(d))
-            for q, t, d in zip(res.query_idx.tolist(), res.train_idx.tolist(),
-                               res.distances.tolist())
-        )
+        return dmatches(res.query_idx, res.train_idx, res.distances)
 
     def knnMatch(self, queryDescriptors, trainDescriptors, k, mask=None,  # noqa: N802, N803
                  compactResult=False):  # noqa: N803

@@ -8,6 +8,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._kernels import refine as _k
+from .._threads import map_chunks
 from ..errors import InvalidArgumentError
 
 #: Half-side of the refinement windows (7 x 7 pixels of the grey images).
@@ -56,7 +57,8 @@ def refine_disparities(gray_l, gray_r, left, xr, yr, *, radius: int = REFINE_RAD
                        step: float = REFINE_STEP, levels: int = REFINE_LEVELS,
                        iterations: int = REFINE_ITERATIONS,
                        tol: float = REFINE_TOL,
-                       max_shift: float = REFINE_MAX_SHIFT) -> Refinement:
+                       max_shift: float = REFINE_MAX_SHIFT,
+                       threads: int | None = None) -> Refinement:
     """Refine the right x of each match to the peak of the ZNCC of the grey windows.
 
     Parameters
@@ -71,6 +73,9 @@ def refine_disparities(gray_l, gray_r, left, xr, yr, *, radius: int = REFINE_RAD
     radius, step, levels, iterations, tol, max_shift
         See :func:`hopmatch._kernels.refine.refine_rows` (window half-side, first sample
         spacing, number of spacings, most moves, convergence threshold, largest shift).
+    threads : int, optional
+        Refine in up to this many threads (None: :func:`hopmatch._threads.current_threads`);
+        each match is refined on its own, so results are bit-identical for any count.
 
     Returns
     -------
@@ -91,7 +96,10 @@ def refine_disparities(gray_l, gray_r, left, xr, yr, *, radius: int = REFINE_RAD
     if not (len(left) == len(xr) == len(yr)):
         raise InvalidArgumentError(f"`left`, `xr` and `yr` must have one row per match, got "
                          f"{len(left)}, {len(xr)} and {len(yr)}")
-    x, ok, peak, curv = _k.refine_rows(as_float_image(gray_l), as_float_image(gray_r), left,
-                                       xr, yr, int(radius), float(step), int(levels),
-                                       int(iterations), float(tol), float(max_shift))
+    img_l, img_r = as_float_image(gray_l), as_float_image(gray_r)
+    x, ok, peak, curv = map_chunks(
+        lambda ls, xs, ys: _k.refine_rows(img_l, img_r, ls, xs, ys, int(radius), float(step),
+                                          int(levels), int(iterations), float(tol),
+                                          float(max_shift)),
+        (left, xr, yr), threads)
     return Refinement(x, ok, peak, curv)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._kernels import similarity as _ks
+from .._threads import map_chunks
 
 #: Regulariser of eq. 7's normalisation (added to the windows' mean contrast).
 EPS = 1e-6
@@ -38,13 +39,18 @@ def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
     ``[1 / gain_tolerance, gain_tolerance]``, so that two views of one surface whose gain
     differs by less than that compare as equal; a larger contrast difference still counts.
     1 is eq. 7 as written.
+
+    Float pairs are computed in :func:`hopmatch._threads.current_threads` threads (each
+    pair on its own: bit-identical for any count).
     """
     if desc_l.dtype == np.uint8:
         return _ks.hamming_fraction(desc_l, desc_r, ni, nk)
     scale_l, scale_r = contrasts if contrasts is not None else window_contrasts(desc_l, desc_r)
-    return _ks.normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, EPS,
-                                    np.inf if gate is None else float(gate),
-                                    float(gain_tolerance))
+    gate = np.inf if gate is None else float(gate)
+    tol = float(gain_tolerance)
+    return map_chunks(lambda i, k: (_ks.normalised_difference(desc_l, desc_r, i, k, scale_l,
+                                                              scale_r, EPS, gate, tol),),
+                      (ni, nk))[0]
 
 
 #: The zero-mean test of window rows: ``|mean| <= WINDOW_MEAN_TOL[0] * mean |x| + [1]``.

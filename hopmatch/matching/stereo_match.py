@@ -7,16 +7,16 @@ import time
 from dataclasses import dataclass, field
 from functools import cached_property
 
-import cv2
 import numpy as np
 
+from .._threads import resolve_threads, run_both, using_threads
 from .._validate import as_fundamental_matrix, check_coordinate_range
 from .._warnings import warn
 from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
 from .geometry import EpipolarGeometry, GeometryWarning
 from .guided import GuidedMatches, guided_pass
-from .matcher import HopfieldMatcher
+from .matcher import HopfieldMatcher, dmatches
 from .network import NetworkResult, PairInfo, match_pair
 from .params import MatcherConfig, matcher_config
 from .refine import Refinement, refine_disparities
@@ -157,16 +157,14 @@ class StereoMatchResult:
     @cached_property
     def matches(self) -> tuple:
         """The matches as ``cv2.DMatch`` (built on first access)."""
-        return tuple(
-            cv2.DMatch(q, t, d) for q, t, d in zip(
-                self.query_idx.tolist(), self.train_idx.tolist(), self.distances.tolist())
-        )
+        return dmatches(self.query_idx, self.train_idx, self.distances)
 
 
 def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_matrix=None,
                  rectified: bool = True, record_energy: bool = False,
                  detector: DericheMoravecDetector | None = None,
-                 matcher: HopfieldMatcher | None = None, **params) -> StereoMatchResult:
+                 matcher: HopfieldMatcher | None = None, threads: int | None = None,
+                 **params) -> StereoMatchResult:
     """Detect Moravec points on a stereo pair and match them with the Hopfield network.
 
     Parameters
@@ -196,6 +194,14 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         Ready instances to use (their parameters; the matcher's pair information is left
         untouched). Parameters of a part given as an instance cannot also be passed as
         keywords.
+    threads : int, optional
+        Threads to use: the left and right detection run concurrently, and the
+        similarity of the candidate pairs, the guided pass and the refinement split their
+        points between threads (rectified pairs; with ``rectified=False`` only the
+        similarity does). None (default):
+        :func:`hopmatch.getNumThreads` (every core unless :func:`hopmatch.setNumThreads`
+        said otherwise, as OpenCV does). Results are bit-identical for any count; peak
+        memory of the detection is that of both images at once with 2 or more.
     **params
         Any :class:`DericheMoravecDetector` or :class:`HopfieldMatcher` parameter;
         ``preset`` applies to both.
@@ -238,6 +244,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     if matcher is not None and not isinstance(matcher, HopfieldMatcher):
         raise InvalidTypeError(
             f"`matcher` must be a HopfieldMatcher, got {type(matcher).__name__}")
+    threads = resolve_threads(threads)
     detector = detector if detector is not None else DericheMoravecDetector(**det_params)
     config = matcher.config() if matcher is not None else matcher_config(match_params,
                                                                           "match_stereo")
@@ -248,33 +255,39 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     if not rectified:
         if matcher is None and "vertical_threshold" not in match_params:
             config = dataclasses.replace(config, vertical_threshold=UNRECTIFIED_VERTICAL)
-        return _match_unrectified(left, right, detector, config, fundamental, mask_left,
-                                  mask_right, record_energy)
+        with using_threads(threads):
+            return _match_unrectified(left, right, detector, config, fundamental, mask_left,
+                                      mask_right, record_energy)
 
-    t0 = time.perf_counter()
-    pts_l, resp_l, desc_l, g_l, gray_l = detector.detect_and_describe(
-        left, mask_left, name="left", mask_name="mask_left", keep_gray=True)
-    t1 = time.perf_counter()
-    pts_r, resp_r, desc_r, g_r, gray_r = detector.detect_and_describe(
-        right, mask_right, name="right", mask_name="mask_right", keep_gray=True)
-    t2 = time.perf_counter()
-    return match_detected((pts_l, resp_l, desc_l, g_l, gray_l),
-                          (pts_r, resp_r, desc_r, g_r, gray_r), config,
-                          keypoint_size=float(detector.getWindowSize()),
-                          fundamental=fundamental, record_energy=record_energy,
-                          timings={"detect_left": t1 - t0, "detect_right": t2 - t1})
+    def detect(image, mask, side):
+        t0 = time.perf_counter()
+        out = detector.detect_and_describe(image, mask, name=side, mask_name=f"mask_{side}",
+                                           keep_gray=True)
+        return out, time.perf_counter() - t0
+
+    with using_threads(threads):
+        (found_l, t_l), (found_r, t_r) = run_both(lambda: detect(left, mask_left, "left"),
+                                                  lambda: detect(right, mask_right, "right"),
+                                                  threads)
+        return match_detected(found_l, found_r, config,
+                              keypoint_size=float(detector.getWindowSize()),
+                              fundamental=fundamental, record_energy=record_energy,
+                              timings={"detect_left": t_l, "detect_right": t_r},
+                              threads=threads)
 
 
 def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
                    fundamental=None, record_energy: bool = False,
-                   timings: dict | None = None) -> StereoMatchResult:
+                   timings: dict | None = None,
+                   threads: int | None = None) -> StereoMatchResult:
     """The matching half of :func:`match_stereo`, on what detection gave for each image.
 
     ``left`` and ``right`` are ``(points, responses, descriptors, gradient, grey)`` as
     :meth:`DericheMoravecDetector.detect_and_describe` returns them with ``keep_gray=True``
     (points may come from elsewhere, described on that detector's gradient); ``config``
     the matcher's parameters; ``fundamental`` None or a checked 3 x 3 matrix. Runs the
-    network, then (rectified pairs of one size) the guided pass and the refinement.
+    network, then (rectified pairs of one size) the guided pass and the refinement, these
+    two in up to ``threads`` threads (None: :func:`hopmatch._threads.current_threads`).
     """
     pts_l, resp_l, desc_l, g_l, gray_l = left
     pts_r, resp_r, desc_r, g_r, gray_r = right
@@ -308,12 +321,13 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     )
     if fundamental is None and shape_l == shape_r and len(net.query_idx):
         result = beyond_network(result, (desc_l, desc_r), (g_l, g_r), (gray_l, gray_r),
-                                net.config)
+                                net.config, threads=threads)
     return result
 
 
 def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
-                   config: MatcherConfig) -> StereoMatchResult:
+                   config: MatcherConfig, *,
+                   threads: int | None = None) -> StereoMatchResult:
     """``result`` (the network's matches on a rectified pair) with the guided pass's
     matches appended (``config.guided``) and every match refined (``config.refine``).
 
@@ -340,7 +354,7 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
     if config.guided:
         gm = guided_pass(pts_l, pts_r, descriptors[0], descriptors[1], gradients[0],
                          gradients[1], net.query_idx, net.train_idx, offset.at(pts_l),
-                         config, margin=config.guided_margin)
+                         config, margin=config.guided_margin, threads=threads)
     t1 = time.perf_counter()
     k = 0 if gm is None else len(gm.query_idx)
     query_idx = net.query_idx if k == 0 else np.r_[net.query_idx, gm.query_idx].astype(np.int32)
@@ -354,7 +368,7 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
         left = pts_l[query_idx]
         yr = left[:, 1].astype(np.float64) - offset.at(left)
         refinement = refine_disparities(grays[0], grays[1], left,
-                                        points_right[train_idx, 0], yr)
+                                        points_right[train_idx, 0], yr, threads=threads)
         moved = train_idx[refinement.ok]
         points_right = points_right.copy() if points_right is pts_r else points_right
         points_right[moved, 0] = refinement.x[refinement.ok]

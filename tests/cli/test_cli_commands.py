@@ -199,6 +199,14 @@ def test_bad_image(pair, tmp_path, side, key, words):
     assert not out.exists()
 
 
+def test_warmup_prints_its_time_and_where_the_kernels_went():
+    res = run("warmup")
+    assert res.returncode == 0, res.stderr
+    assert re.fullmatch(r"warmup: \d+\.\d s, (kernels cached in .+|on-disk cache off.+)\n",
+                        res.stdout), res.stdout
+    assert run("--quiet", "warmup").stdout == ""
+
+
 @pytest.mark.parametrize("key", ["garbage", "folder"])
 def test_detect_bad_image(pair, tmp_path, key):
     out = tmp_path / "out"

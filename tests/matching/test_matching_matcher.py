@@ -402,3 +402,34 @@ def test_pair_changed_during_a_match_is_detected(monkeypatch):
     other = pickle.loads(pickle.dumps(m))
     other.setPairInfo(p, p - [5, 0])
     assert len(other.match(d, d)) > 50 and len(m.clone().match(d, d)) > 50
+
+
+def test_match_is_the_same_for_own_keypoints_arrays_and_copies(motorcycle):
+    """The drop-in path (the detector's keypoint tuples) and the slow paths (arrays, lists
+    of new keypoints) give the same matches; a keypoint moved after detection is seen."""
+    import cv2
+
+    left, right, _ = motorcycle
+    det = hopmatch.DericheMoravecDetector()
+    kl, dl = det.detectAndCompute(left, None)
+    kr, dr = det.detectAndCompute(right, None)
+    size = left.shape[1::-1]
+
+    def matches(q, t):
+        m = hopmatch.HopfieldMatcher()
+        m.setPairInfo(q, t, size, size)
+        return [(d.queryIdx, d.trainIdx, d.distance, d.imgIdx) for d in m.match(dl, dr)]
+
+    own = matches(kl, kr)
+    assert len(own) > 1000
+    assert own == matches(cv2.KeyPoint_convert(kl), cv2.KeyPoint_convert(kr))
+    assert own == matches([cv2.KeyPoint(*k.pt, k.size) for k in kl], list(kr))
+    naive = hopmatch.HopfieldMatcher()
+    naive.setPairInfo(kl, kr, size, size)
+    res = naive.run(dl, dr)
+    assert own == [(int(q), int(t), float(d), -1) for q, t, d in
+                   zip(res.query_idx, res.train_idx, res.distances)]
+    q0 = own[0][0]
+    kl[q0].pt = (kl[q0].pt[0], kl[q0].pt[1] + 40.0)  # off its row: its match must change
+    assert matches(kl, kr) == matches(cv2.KeyPoint_convert(kl), cv2.KeyPoint_convert(kr))
+    assert (q0, own[0][1]) not in {(q, t) for q, t, _, _ in matches(kl, kr)}

@@ -1,0 +1,96 @@
+"""hopmatch's thread setting (hopmatch._threads): the cv2-like API, and results that are
+bit-identical for any thread count."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import hopmatch
+from hopmatch._threads import map_chunks, resolve_threads, run_both, using_threads
+from hopmatch.errors import InvalidArgumentError, InvalidTypeError
+
+FIELDS = ("points_left", "points_right", "responses_left", "responses_right", "query_idx",
+          "train_idx", "distances", "passes")
+
+
+@pytest.fixture
+def restore_threads():
+    yield
+    hopmatch.setNumThreads(-1)
+
+
+def test_set_and_get_num_threads_as_cv2(restore_threads):
+    default = hopmatch.getNumThreads()
+    assert default >= 1
+    hopmatch.setNumThreads(3)
+    assert hopmatch.getNumThreads() == 3
+    hopmatch.setNumThreads(0)  # OpenCV's 0: sequential
+    assert hopmatch.getNumThreads() == 1
+    hopmatch.setNumThreads(-1)  # back to every core
+    assert hopmatch.getNumThreads() == default
+    with pytest.raises(InvalidTypeError, match="nthreads"):
+        hopmatch.setNumThreads(2.0)
+
+
+def test_resolve_threads_names_its_argument(restore_threads):
+    hopmatch.setNumThreads(2)
+    assert resolve_threads(None) == 2 and resolve_threads(5) == 5
+    with pytest.raises(InvalidArgumentError, match="`threads`.*got 0"):
+        resolve_threads(0)
+    with pytest.raises(InvalidTypeError, match="`threads`"):
+        resolve_threads(True)
+    with pytest.raises(InvalidArgumentError, match="`threads`"):
+        hopmatch.match_stereo(np.zeros((30, 30), np.uint8), np.zeros((30, 30), np.uint8),
+                              threads=-2)
+
+
+def test_map_chunks_equals_one_call():
+    rng = np.random.default_rng(0)
+    a, b = rng.random(2000), rng.random((2000, 3))
+
+    def fn(x, y):
+        return np.sqrt(x) * 3.0, (y * x[:, None]).sum(axis=1)
+
+    for threads in (1, 2, 3, 7):
+        for got, want in zip(map_chunks(fn, (a, b), threads), fn(a, b)):
+            np.testing.assert_array_equal(got, want)
+    with using_threads(4):
+        np.testing.assert_array_equal(map_chunks(fn, (a, b))[0], fn(a, b)[0])
+
+
+def test_run_both_keeps_the_sequential_errors():
+    def fails(what):
+        raise ValueError(what)
+
+    assert run_both(lambda: 1, lambda: 2, 2) == (1, 2)
+    with pytest.raises(ValueError, match="first"):
+        run_both(lambda: fails("first"), lambda: fails("second"), 2)
+    with pytest.raises(ValueError, match="second"):
+        run_both(lambda: 1, lambda: fails("second"), 2)
+
+
+def test_match_stereo_is_bit_identical_for_any_thread_count(motorcycle):
+    left, right, _ = motorcycle
+    one = hopmatch.match_stereo(left, right, threads=1)
+    assert len(one.query_idx) > 1000 and one.passes.max() == 1 and one.refinement is not None
+    for threads in (2, 3):
+        other = hopmatch.match_stereo(left, right, threads=threads)
+        for name in FIELDS:
+            np.testing.assert_array_equal(getattr(other, name), getattr(one, name), name)
+        np.testing.assert_array_equal(other.refinement.x, one.refinement.x)
+        assert other.network.energy == one.network.energy
+
+
+def test_the_matcher_is_bit_identical_for_any_thread_count(motorcycle, restore_threads):
+    left, right, _ = motorcycle
+    det = hopmatch.DericheMoravecDetector()
+    kl, dl = det.detectAndCompute(left, None)
+    kr, dr = det.detectAndCompute(right, None)
+    out = []
+    for threads in (1, 2):
+        hopmatch.setNumThreads(threads)
+        m = hopmatch.HopfieldMatcher()
+        m.setPairInfo(kl, kr, left.shape[1::-1], right.shape[1::-1])
+        out.append([(d.queryIdx, d.trainIdx, d.distance) for d in m.match(dl, dr)])
+    assert out[0] == out[1] and len(out[0]) > 1000
