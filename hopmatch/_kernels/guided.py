@@ -8,6 +8,7 @@ import numpy as np
 
 from .._config import jit
 from .interactions import compatibility
+from .neighbours import cell_buckets
 
 #: Status codes of :func:`row_search` (0 = a peak was found and passed the back search).
 FOUND = 0
@@ -27,47 +28,17 @@ def query_neighbours(queries, matched, half_w, half_h):
 
     ``queries`` (Q, 2) and ``matched`` (M, 2) are float32 (x, y). Returns ``(offsets,
     indices)``: query q's neighbours are ``indices[offsets[q]:offsets[q + 1]]`` (indices
-    into ``matched``, in no particular order). The matched points are bucketed in cells a
-    hair larger than ``half_w x half_h`` (enlarged until there are at most ~4 cells per
-    point), so each query scans the 3 x 3 cells around it.
+    into ``matched``, in no particular order). The matched points are bucketed by
+    :func:`~hopmatch._kernels.neighbours.cell_buckets` (the network's grid), and each query
+    scans the cells of the box around it.
     """
     nq = queries.shape[0]
     nm = matched.shape[0]
     offsets = np.zeros(nq + 1, dtype=np.int64)
     if nm == 0 or nq == 0:
         return offsets, np.empty(0, dtype=np.int32)
-    xmin = np.float64(matched[:, 0].min())
-    ymin = np.float64(matched[:, 1].min())
-    span_x = np.float64(matched[:, 0].max()) - xmin
-    span_y = np.float64(matched[:, 1].max()) - ymin
-    cw = max(np.float64(half_w) * (1.0 + 1e-6), 1e-3)
-    ch = max(np.float64(half_h) * (1.0 + 1e-6), 1e-3)
-    ncx = int(span_x / cw) + 1
-    ncy = int(span_y / ch) + 1
-    while ncx * ncy > 4 * nm + 64:
-        cw *= 2.0
-        ch *= 2.0
-        ncx = int(span_x / cw) + 1
-        ncy = int(span_y / ch) + 1
-    cell_start = np.zeros(ncx * ncy + 1, dtype=np.int64)
-    cell = np.empty(nm, dtype=np.int64)
-    for j in range(nm):
-        cx = min(int((np.float64(matched[j, 0]) - xmin) / cw), ncx - 1)
-        cy = min(int((np.float64(matched[j, 1]) - ymin) / ch), ncy - 1)
-        cell[j] = cy * ncx + cx
-        cell_start[cell[j] + 1] += 1
-    for c in range(ncx * ncy):
-        cell_start[c + 1] += cell_start[c]
-    members = np.empty(nm, dtype=np.int32)
-    sx = np.empty(nm, dtype=np.float32)
-    sy = np.empty(nm, dtype=np.float32)
-    fill = cell_start[:-1].copy()
-    for j in range(nm):
-        t = fill[cell[j]]
-        members[t] = j
-        sx[t] = matched[j, 0]
-        sy[t] = matched[j, 1]
-        fill[cell[j]] += 1
+    xmin, ymin, cw, ch, ncx, ncy, _, cell_start, members, sx, sy = cell_buckets(
+        matched, half_w, half_h)
     cap = 16 * nq + 1024
     idx = np.empty(cap, dtype=np.int32)
     p = 0
