@@ -14,6 +14,7 @@ from .._validate import as_fundamental_matrix, check_coordinate_range
 from .._warnings import warn
 from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
+from .confidence import confidence_distances, fields_of_distances
 from .geometry import EpipolarGeometry, GeometryWarning
 from .guided import GuidedMatches, guided_pass
 from .matcher import HopfieldMatcher
@@ -73,9 +74,13 @@ class StereoMatchResult:
         Matches as indices into ``points_left`` / ``points_right``: the network's first
         (in its order, ``network.query_idx``), then the guided ones.
     distances : (M,) float32 ndarray
-        ``DMatch.distance`` of each match: ``1 / (1 + exp(u))``, u the match's local field
-        (see :class:`HopfieldMatcher`); for a guided match, the field of the guided pair
-        among its matched neighbours.
+        ``DMatch.distance`` of each match, lower is better. With the refinement (the
+        default): ``1 - p``, p the estimated probability that the match is correct at
+        1 px from its local field u and the curvature of the ZNCC at its refined peak
+        (:func:`~hopmatch.matching.confidence.confidence_distances`), one scale for both
+        passes. Without it (``refine=False``, ``preset="paper"``): ``1 / (1 + exp(u))``
+        (see :class:`HopfieldMatcher`); for a guided match, u is the field of the guided
+        pair among its matched neighbours. ``network.distances`` is always the latter.
     network : NetworkResult
         Everything the network computed (fields, energy, energy trace...), unrefined.
     timings : dict
@@ -365,6 +370,10 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
     passes = np.r_[np.full(len(net.query_idx), PASS_NETWORK, np.uint8),
                    np.full(k, PASS_GUIDED, np.uint8)]
     distances = net.distances if k == 0 else np.r_[net.distances, gm.distances]
+    if refinement is not None:  # one scale for both passes: field and peak curvature
+        u = fields_of_distances(net.distances)
+        u = u if k == 0 else np.r_[u, gm.fields]
+        distances = confidence_distances(u, refinement.curvature)
     return dataclasses.replace(
         result, points_right=points_right, responses_right=responses_right,
         query_idx=query_idx, train_idx=train_idx, distances=distances.astype(np.float32),
