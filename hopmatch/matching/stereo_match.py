@@ -16,7 +16,7 @@ from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
 from .confidence import confidence_distances, fields_of_distances
 from .geometry import EpipolarGeometry, GeometryWarning
-from .guided import GuidedMatches, guided_pass
+from .guided import GuidedMatches, guided_pass, guided_rounds
 from .matcher import HopfieldMatcher
 from .network import NetworkResult, PairInfo, match_pair
 from .params import MatcherConfig, matcher_config
@@ -343,9 +343,9 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
     n_right = len(pts_r)
     gm = None
     if config.guided:
-        gm = guided_pass(pts_l, pts_r, descriptors[0], descriptors[1], gradients[0],
-                         gradients[1], net.query_idx, net.train_idx, offset.at(pts_l),
-                         config, margin=config.guided_margin)
+        gm = guided_rounds(pts_l, pts_r, descriptors[0], descriptors[1], gradients[0],
+                           gradients[1], net.query_idx, net.train_idx, offset.at(pts_l),
+                           config, margin=config.guided_margin)
     t1 = time.perf_counter()
     k = 0 if gm is None else len(gm.query_idx)
     query_idx = net.query_idx if k == 0 else np.r_[net.query_idx, gm.query_idx].astype(np.int32)
