@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 #: Intercept a of the logistic model.
-CONFIDENCE_BIAS = 3.3
+CONFIDENCE_BIAS = 3.1
 #: Weight b of the local field u.
 CONFIDENCE_FIELD = 0.31
 #: Weight c of the log curvature of the ZNCC at the refined peak.
