@@ -1,7 +1,7 @@
 """Per-scene quality of match_stereo's defaults, pass by pass, against ground truth.
 
 Run: ``python benchmarks/passes.py [--scenes NAME ...] [--perturb NAME ...] [--params JSON]
-[--baselines]``
+[--baselines] [--ranking]``
 
 For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
 scene there) it prints: matches, correct@1px and precision@1px
@@ -11,6 +11,9 @@ correct matches (ground truth interpolated bilinearly at the sub-pixel left poin
 four pixels are known: meaningful on the float ground truth of the 2014 scenes), and the
 seconds of ``match_stereo`` (single thread). ``--baselines`` adds SIFT + ratio + band and
 StereoSGBM sampled at the same left keypoints (``hopmatch.compare``), and the pooled ratio.
+``--ranking`` adds, per scene and pooled, the precision@1px of the best k % of the matches
+by ``result.distances`` (k = 10, 20, 30, 50, 70, 90, 100; scored matches only), which a
+confidence that ranks keeps (near) non-increasing in k.
 
 ``--perturb`` applies a change to the right image before matching and maps the right
 points back through it before scoring: ``dy0.5`` (shifted down by 0.5 px), ``gain0.7``
@@ -107,12 +110,35 @@ def score(left, right, disparity):
     return len(left), sc.correct[1.0], sc.precision[1.0], med
 
 
+#: The fractions of the matches, best first by distance, that ``--ranking`` scores.
+RANK_FRACTIONS = (0.1, 0.2, 0.3, 0.5, 0.7, 0.9, 1.0)
+
+
+def best_k_correct(distances, left, right, disparity):
+    """``(correct flags, distances)`` of the scored matches, sorted by distance (stable)."""
+    sc = score_matches(left, right, disparity, thresholds=(1.0,))
+    dy = np.abs(left[sc.scored, 1] - right[sc.scored, 1])
+    ok = (np.abs(sc.errors) <= 1.0) & (dy <= 1.0)
+    dist = np.asarray(distances)[sc.scored]
+    order = np.argsort(dist, kind="stable")
+    return ok[order], dist[order]
+
+
+def precision_of_best(flags) -> list:
+    """Precision of the best ``k`` of sorted correct ``flags``, k of :data:`RANK_FRACTIONS`."""
+    n = len(flags)
+    return [float(np.mean(flags[:max(1, round(f * n))])) if n else float("nan")
+            for f in RANK_FRACTIONS]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", nargs="*", help="scene names (default: all available)")
     ap.add_argument("--perturb", nargs="*", default=[""], help="right-image perturbations")
     ap.add_argument("--params", default="{}", help="match_stereo parameters (JSON object)")
     ap.add_argument("--baselines", action="store_true", help="also SIFT and SGBM")
+    ap.add_argument("--ranking", action="store_true",
+                    help="also the precision of the best k %% by distance")
     args = ap.parse_args(argv)
     single_thread()
     params = json.loads(args.params)
@@ -123,6 +149,7 @@ def main(argv=None) -> int:
               " | ms" + (" | SIFT | SGBM" if args.baselines else ""))
         tot = {"m": 0, "c": 0, "s": 0, "sift": 0, "sgbm": 0}
         worst = (1.0, "")
+        ranked = []
         for n in names:
             scene = datasets.load(n)
             right, m = perturb(scene.right, spec) if spec else (scene.right, np.eye(3))
@@ -156,6 +183,23 @@ def main(argv=None) -> int:
                 tot["sgbm"] += cg
                 row += f" | {cs}{'' if c >= cs else ' (miss)'} | {cg}"
             print(row, flush=True)
+            if args.ranking:
+                flags, dist = best_k_correct(res.distances, left_pts, right_pts,
+                                             scene.disparity)
+                ranked.append((flags, dist))
+                print(f"  best k by distance ({'/'.join(f'{f:.0%}' for f in RANK_FRACTIONS)}):"
+                      f" {' '.join(f'{p:.3f}' for p in precision_of_best(flags))}", flush=True)
+        if ranked:
+            # pooled: every scene's matches at its own rank fraction, merged by that fraction
+            frac = np.concatenate([(np.arange(len(f)) + 0.5) / max(len(f), 1)
+                                   for f, _ in ranked])
+            flags = np.concatenate([f for f, _ in ranked])
+            dist = np.concatenate([d for _, d in ranked])
+            by_rank = precision_of_best(flags[np.argsort(frac, kind="stable")])
+            by_dist = precision_of_best(flags[np.argsort(dist, kind="stable")])
+            print(f"pooled best k by rank within each scene: "
+                  f"{' '.join(f'{p:.4f}' for p in by_rank)}; by distance: "
+                  f"{' '.join(f'{p:.4f}' for p in by_dist)}", flush=True)
         pooled = tot["c"] / tot["s"] if tot["s"] else float("nan")
         line = (f"pooled: {tot['m']} matches, {tot['c']} correct, precision {pooled:.4f}, "
                 f"worst {worst[0]:.3f} ({worst[1]})")

@@ -92,18 +92,47 @@ def compatibility(x, theta, slope):
 
 
 def field(pl, pr, sim, neighbours_left, neighbours_right, neighbours_sim, theta, slope,
-          weight, bias):
+          weight, bias, gradient=(0.0, 0.0)):
     """Eq. 12's bracket of the pair (pl, pr) alone in its row and column: ``bias + sum_j
-    C(|d - d_j| + |D - D'| + weight (sim + sim_j))`` (eqs. 5, 6, 10)."""
+    C(|d - d_j| + |D - D'| + weight (sim + sim_j))`` (eqs. 5, 6, 10), each neighbour's
+    right point first moved left by ``gx (xq - xj) + gy (yq - yj)`` (``gradient = (gx,
+    gy)``: the neighbour carried along a local plane to the query)."""
     d = math.hypot(pl[0] - pr[0], pl[1] - pr[1])
     total = bias
     for ql, qr, sj in zip(neighbours_left, neighbours_right, neighbours_sim):
+        e = gradient[0] * (pl[0] - ql[0]) + gradient[1] * (pl[1] - ql[1])
+        qr = (qr[0] - e, qr[1])
         dj = math.hypot(ql[0] - qr[0], ql[1] - qr[1])
         len_l = math.hypot(pl[0] - ql[0], pl[1] - ql[1])
         len_r = math.hypot(pr[0] - qr[0], pr[1] - qr[1])
         total += compatibility(abs(d - dj) + abs(len_l - len_r) + weight * (sim + sj), theta,
                                slope)
     return total
+
+
+def local_plane(query, neighbours_left, disparities, inlier, min_count):
+    """The guided pass's prediction at ``query`` from its matched neighbours, as
+    ``hopmatch._kernels.guided.neighbour_planes`` documents it: ``(prediction, gx, gy)``,
+    the least-squares plane ``d = a + gx (x - xq) + gy (y - yq)`` through the neighbours
+    within ``inlier`` of their median (``np.linalg.lstsq``), or the median with zero
+    gradient when fewer than ``min_count`` are inliers, the fit is degenerate or a lies
+    more than ``inlier`` from the median."""
+    d = np.asarray(disparities, np.float64)
+    if len(d) == 0:
+        return float("nan"), 0.0, 0.0
+    m = float(np.median(d))
+    keep = np.abs(d - m) <= inlier
+    if keep.sum() < min_count:
+        return m, 0.0, 0.0
+    pts = np.asarray(neighbours_left, np.float64)[keep] - np.asarray(query, np.float64)
+    a_mat = np.c_[np.ones(keep.sum()), pts]
+    n = a_mat.T @ a_mat
+    if not np.linalg.det(n) > 1e-9 * n[0, 0] * n[1, 1] * n[2, 2]:
+        return m, 0.0, 0.0
+    (a, gx, gy), *_ = np.linalg.lstsq(a_mat, d[keep], rcond=None)
+    if abs(a - m) > inlier:
+        return m, 0.0, 0.0
+    return float(a), float(gx), float(gy)
 
 
 def refine_one(img_l, img_r, xl, yl, xr, yr, radius, step, levels, iterations, tol,

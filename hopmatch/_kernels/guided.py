@@ -8,6 +8,7 @@ import numpy as np
 
 from .._config import jit
 from .interactions import compatibility
+from .neighbours import cell_buckets
 
 #: Status codes of :func:`row_search` (0 = a peak was found and passed the back search).
 FOUND = 0
@@ -27,47 +28,17 @@ def query_neighbours(queries, matched, half_w, half_h):
 
     ``queries`` (Q, 2) and ``matched`` (M, 2) are float32 (x, y). Returns ``(offsets,
     indices)``: query q's neighbours are ``indices[offsets[q]:offsets[q + 1]]`` (indices
-    into ``matched``, in no particular order). The matched points are bucketed in cells a
-    hair larger than ``half_w x half_h`` (enlarged until there are at most ~4 cells per
-    point), so each query scans the 3 x 3 cells around it.
+    into ``matched``, in no particular order). The matched points are bucketed by
+    :func:`~hopmatch._kernels.neighbours.cell_buckets` (the network's grid), and each query
+    scans the cells of the box around it.
     """
     nq = queries.shape[0]
     nm = matched.shape[0]
     offsets = np.zeros(nq + 1, dtype=np.int64)
     if nm == 0 or nq == 0:
         return offsets, np.empty(0, dtype=np.int32)
-    xmin = np.float64(matched[:, 0].min())
-    ymin = np.float64(matched[:, 1].min())
-    span_x = np.float64(matched[:, 0].max()) - xmin
-    span_y = np.float64(matched[:, 1].max()) - ymin
-    cw = max(np.float64(half_w) * (1.0 + 1e-6), 1e-3)
-    ch = max(np.float64(half_h) * (1.0 + 1e-6), 1e-3)
-    ncx = int(span_x / cw) + 1
-    ncy = int(span_y / ch) + 1
-    while ncx * ncy > 4 * nm + 64:
-        cw *= 2.0
-        ch *= 2.0
-        ncx = int(span_x / cw) + 1
-        ncy = int(span_y / ch) + 1
-    cell_start = np.zeros(ncx * ncy + 1, dtype=np.int64)
-    cell = np.empty(nm, dtype=np.int64)
-    for j in range(nm):
-        cx = min(int((np.float64(matched[j, 0]) - xmin) / cw), ncx - 1)
-        cy = min(int((np.float64(matched[j, 1]) - ymin) / ch), ncy - 1)
-        cell[j] = cy * ncx + cx
-        cell_start[cell[j] + 1] += 1
-    for c in range(ncx * ncy):
-        cell_start[c + 1] += cell_start[c]
-    members = np.empty(nm, dtype=np.int32)
-    sx = np.empty(nm, dtype=np.float32)
-    sy = np.empty(nm, dtype=np.float32)
-    fill = cell_start[:-1].copy()
-    for j in range(nm):
-        t = fill[cell[j]]
-        members[t] = j
-        sx[t] = matched[j, 0]
-        sy[t] = matched[j, 1]
-        fill[cell[j]] += 1
+    xmin, ymin, cw, ch, ncx, ncy, _, cell_start, members, sx, sy = cell_buckets(
+        matched, half_w, half_h)
     cap = 16 * nq + 1024
     idx = np.empty(cap, dtype=np.int32)
     p = 0
@@ -355,13 +326,18 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
 
 @jit
 def continuity_field(pts_q, xr, yr, sim_q, offsets, idx, rows, m_left, m_right, m_sim,
-                     theta, slope, weight, bias):
+                     theta, slope, weight, bias, gx, gy):
     """Eq. 12's bracket for a guided match alone in its row and column: ``u = bias +
     sum_j C`` over the matched neighbours j (eq. 5 of eq. 10's ``X = |d_q - d_j| + |D_qj -
     D'_qj| + weight (s_q + s_j)``, d the Euclidean disparity of eq. 6, D and D' the left
     and right lengths), with ``(pts_q[q], (xr[q], yr[q]))`` the guided pair, ``sim_q`` its
     normalised similarity, its neighbours ``idx[offsets[rows[q]]:offsets[rows[q] + 1]]``
-    (indices into the matched pairs ``m_left``, ``m_right``, ``m_sim``)."""
+    (indices into the matched pairs ``m_left``, ``m_right``, ``m_sim``).
+
+    ``gx[q]``, ``gy[q]``: a local disparity gradient (px per px) the neighbours are
+    carried along before the comparison (support from a local plane): neighbour j's right
+    x becomes ``xk - e``, ``e = gx (xq - xj) + gy (yq - yj)``, so that a neighbour on the
+    same slanted plane counts as continuous. With zero gradients this is eq. 10 as is."""
     nq = pts_q.shape[0]
     u = np.full(nq, np.nan)
     for q in range(nq):
@@ -375,7 +351,8 @@ def continuity_field(pts_q, xr, yr, sim_q, offsets, idx, rows, m_left, m_right, 
             j = idx[t]
             xj = np.float64(m_left[j, 0])
             yj = np.float64(m_left[j, 1])
-            xk = np.float64(m_right[j, 0])
+            # neighbour j carried along the gradient to the query (e = 0 without one)
+            xk = np.float64(m_right[j, 0]) - (gx[q] * (x0 - xj) + gy[q] * (y0 - yj))
             yk = np.float64(m_right[j, 1])
             d_j = np.sqrt((xj - xk) ** 2 + (yj - yk) ** 2)
             len_l = np.sqrt((x0 - xj) ** 2 + (y0 - yj) ** 2)
@@ -384,3 +361,70 @@ def continuity_field(pts_q, xr, yr, sim_q, offsets, idx, rows, m_left, m_right, 
             total += compatibility(x, theta, slope)
         u[q] = total
     return u
+
+
+@jit
+def neighbour_planes(queries, offsets, idx, m_left, values, inlier, min_count):
+    """Disparity predicted at each query point by a local plane of its matched neighbours.
+
+    For query q (point ``queries[q]``, neighbours ``idx[offsets[q]:offsets[q + 1]]`` into
+    ``m_left`` with disparities ``values``): m is the median of the neighbours'
+    disparities (as :func:`neighbour_medians`); the neighbours within ``inlier`` px of m
+    are fitted by least squares with ``d = a + b (x - xq) + c (y - yq)``, and the
+    prediction is a, the plane at the query. The median is returned instead when fewer
+    than ``min_count`` neighbours are inliers, when the fit is degenerate (the inliers'
+    positions span no plane: the normal matrix's determinant is below 1e-9 of the
+    product of its diagonal), or when a lies more than ``inlier`` px from m. NaN for a
+    query without neighbours.
+
+    Returns ``(prediction, gx, gy)``: the plane's gradient (b, c) in px of disparity per
+    px, 0 where the median is returned.
+    """
+    nq = offsets.shape[0] - 1
+    med = neighbour_medians(offsets, idx, values)
+    out = med.copy()
+    gx = np.zeros(nq)
+    gy = np.zeros(nq)
+    for q in range(nq):
+        m = med[q]
+        if not np.isfinite(m):
+            continue
+        xq = np.float64(queries[q, 0])
+        yq = np.float64(queries[q, 1])
+        n = 0.0
+        sx = sy = sxx = sxy = syy = 0.0
+        sd = sxd = syd = 0.0
+        for t in range(offsets[q], offsets[q + 1]):
+            j = idx[t]
+            d = np.float64(values[j])
+            if abs(d - m) > inlier:
+                continue
+            x = np.float64(m_left[j, 0]) - xq
+            y = np.float64(m_left[j, 1]) - yq
+            n += 1.0
+            sx += x
+            sy += y
+            sxx += x * x
+            sxy += x * y
+            syy += y * y
+            sd += d
+            sxd += x * d
+            syd += y * d
+        if n < min_count:
+            continue
+        # normal equations [[n, sx, sy], [sx, sxx, sxy], [sy, sxy, syy]] (a, b, c) = rhs
+        c00 = sxx * syy - sxy * sxy
+        c01 = sy * sxy - sx * syy
+        c02 = sx * sxy - sy * sxx
+        det = n * c00 + sx * c01 + sy * c02
+        if not det > 1e-9 * n * sxx * syy:
+            continue
+        a = (sd * c00 + sxd * c01 + syd * c02) / det
+        if abs(a - m) <= inlier:
+            out[q] = a
+            # b and c by Cramer's rule on the other two columns
+            gx[q] = (n * (sxd * syy - sxy * syd) - sd * (sx * syy - sxy * sy)
+                     + sy * (sx * syd - sxd * sy)) / det
+            gy[q] = (n * (sxx * syd - sxd * sxy) - sx * (sx * syd - sxd * sy)
+                     + sd * (sx * sxy - sxx * sy)) / det
+    return out, gx, gy

@@ -29,24 +29,20 @@ def cell_size(half_w, half_h):
 
 
 @jit
-def neighbour_lists(points, half_w, half_h):
-    """CSR lists of the other points j with ``|xj - xi| <= half_w`` and ``|yj - yi| <= half_h``
-    (differences in float32, as the points are stored).
+def cell_buckets(points, half_w, half_h):
+    """The points of ``points`` (N >= 1, float32 (x, y)) sorted by grid cell (a counting
+    sort): cells of :func:`cell_size` for ``half_w x half_h``, enlarged by doubling until
+    there are at most ``4 N + 64`` cells, so every point within the half-window of a point
+    lies in the 3 x 3 cells around the cell of that point.
 
-    Points are bucketed in a grid of cells of :func:`cell_size` (enlarged by doubling until
-    there are at most ``4 N + 64`` cells), so every neighbour lies in the 3 x 3 cells
-    around a point and the cost grows with the number of neighbours, not with N squared.
-    Returns ``(offsets, indices)``; each list is sorted by index.
-
-    The lists are gathered cell by cell, so each comes out as a few sorted runs; rather than
-    sorting every list, they are transposed (:func:`transposed_lists`): the relation is
-    symmetric (``|a - b| == |b - a|`` exactly in float32), so the transpose holds the same
-    lists, each in increasing order.
+    Returns ``(xmin, ymin, cw, ch, ncx, ncy, cell, cell_start, members, sx, sy)``: the grid
+    origin (float64), cell size (float64) and counts, ``cell[i]`` the cell
+    (``cy * ncx + cx``) of point i, ``cell_start`` (``ncx * ncy + 1``) the CSR starts of the
+    cells in ``members`` (point indices, int32, increasing within a cell), and ``sx``, ``sy``
+    the points' coordinates in that order (float32, stored contiguously for the scans).
+    The one grid of :func:`neighbour_lists` and of the guided pass's query lists.
     """
     n = points.shape[0]
-    offsets = np.zeros(n + 1, dtype=np.int64)
-    if n == 0:
-        return offsets, np.empty(0, dtype=np.int32)
     xmin = np.float64(points[:, 0].min())
     ymin = np.float64(points[:, 1].min())
     span_x = np.float64(points[:, 0].max()) - xmin
@@ -59,7 +55,6 @@ def neighbour_lists(points, half_w, half_h):
         ch *= 2.0
         ncx = int(span_x / cw) + 1
         ncy = int(span_y / ch) + 1
-    # counting sort of the points by cell, with their coordinates stored contiguously
     cell = np.empty(n, dtype=np.int64)
     cell_start = np.zeros(ncx * ncy + 1, dtype=np.int64)
     for i in range(n):
@@ -79,6 +74,30 @@ def neighbour_lists(points, half_w, half_h):
         sx[q] = points[i, 0]
         sy[q] = points[i, 1]
         fill[cell[i]] += 1
+    return xmin, ymin, cw, ch, ncx, ncy, cell, cell_start, members, sx, sy
+
+
+@jit
+def neighbour_lists(points, half_w, half_h):
+    """CSR lists of the other points j with ``|xj - xi| <= half_w`` and ``|yj - yi| <= half_h``
+    (differences in float32, as the points are stored).
+
+    Points are bucketed in a grid of cells of :func:`cell_size` (enlarged by doubling until
+    there are at most ``4 N + 64`` cells), so every neighbour lies in the 3 x 3 cells
+    around a point and the cost grows with the number of neighbours, not with N squared.
+    Returns ``(offsets, indices)``; each list is sorted by index.
+
+    The lists are gathered cell by cell, so each comes out as a few sorted runs; rather than
+    sorting every list, they are transposed (:func:`transposed_lists`): the relation is
+    symmetric (``|a - b| == |b - a|`` exactly in float32), so the transpose holds the same
+    lists, each in increasing order.
+    """
+    n = points.shape[0]
+    offsets = np.zeros(n + 1, dtype=np.int64)
+    if n == 0:
+        return offsets, np.empty(0, dtype=np.int32)
+    xmin, ymin, cw, ch, ncx, ncy, cell, cell_start, members, sx, sy = cell_buckets(
+        points, half_w, half_h)
     cap = 16 * n + 1024
     indices = np.empty(cap, dtype=np.int32)
     p = 0

@@ -65,7 +65,9 @@ def eval_(ctx, scenes, methods, out, docs, draw, repeat):
     run) on every scene, scores the matches against the ground truth at 0.5, 1 and 2 px,
     prints the table (scene x method: matches, correct@1, precision@1, recall@1, time ms)
     and writes results.md, results.csv, precision_vs_correct.png and error_histogram.png
-    into DIR. With --docs it rewrites docs/results.md and docs/img/*.png instead.
+    into DIR, and precision_curves.png (precision against correct matches as hopmatch's
+    distance threshold, SIFT's ratio and SGBM's uniqueness ratio move) when one of
+    those methods runs. With --docs it rewrites docs/results.md and docs/img/*.png instead.
     """
     import importlib.util
 
@@ -122,8 +124,10 @@ def eval_(ctx, scenes, methods, out, docs, draw, repeat):
         n = len(loaded)
         pooled = (f"Absolute disparity error of the scored matches "
                   f"({'all ' + str(n) + ' scenes pooled' if n > 1 else loaded[0].name})")
+        curve_rows = cmp.precision_curves(loaded, method_names, progress=status)
         status("plotting")
         prec_png = viz.render_precision_vs_correct(rows)
+        curve_png = viz.render_precision_curves(curve_rows) if curve_rows else None
         hist_png = viz.render_error_histogram(all_errors, title=pooled)
         if out is not None:
             target = targets[0]
@@ -131,6 +135,8 @@ def eval_(ctx, scenes, methods, out, docs, draw, repeat):
             target.add_text("results.csv", cmp.format_csv(rows))
             target.add("precision_vs_correct.png", prec_png)
             target.add("error_histogram.png", hist_png)
+            if curve_png is not None:
+                target.add("precision_curves.png", curve_png)
             if draw:
                 for r in rows:
                     status(f"drawing {r['scene']}: {r['method']}")
@@ -142,6 +148,12 @@ def eval_(ctx, scenes, methods, out, docs, draw, repeat):
                         "img/error_histogram.png": pooled}
             img_out.add("precision_vs_correct.png", prec_png)
             img_out.add("error_histogram.png", hist_png)
+            if curve_png is not None:
+                img_out.add("precision_curves.png", curve_png)
+                pictures["img/precision_curves.png"] = (
+                    "Precision@1 against correct@1 as each method's threshold moves "
+                    "(hopmatch: distance, SIFT + band: Lowe ratio, SGBM: uniqueness ratio), "
+                    "all scenes pooled")
             if "motorcycle" in scene_of and n > 1:
                 img_out.add("error_histogram_motorcycle.png", viz.render_error_histogram(
                     cmp.errors_by_method(rows, "motorcycle"),
@@ -157,7 +169,8 @@ def eval_(ctx, scenes, methods, out, docs, draw, repeat):
                 pictures[f"img/{file}"] = (f"{method} on {scene}: correct within 1 px green, "
                                            "wrong red, no ground truth grey")
             doc_out.add_text("results.md", cmp.format_results_doc(
-                rows, loaded, pictures=pictures, machine=cmp.machine_description(),
+                rows, loaded, pictures=pictures, curves=curve_rows,
+                machine=cmp.machine_description(),
                 created=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
                 elapsed=time.perf_counter() - t_start, repeat=repeat))
         for target in targets:

@@ -20,7 +20,9 @@ top; ``hopmatch eval --docs`` regenerates ``docs/results.md``.
 
 Modules: :mod:`~hopmatch.compare.methods` (the methods), :mod:`~hopmatch.compare.runner`
 (running and scoring), :mod:`~hopmatch.compare.tables` (tables and pictures of the rows),
-:mod:`~hopmatch.compare.results_doc` (``docs/results.md``); every name is importable from
+:mod:`~hopmatch.compare.results_doc` (``docs/results.md``),
+:mod:`~hopmatch.compare.curves` (precision against correct matches as each method's own
+threshold moves); every name is importable from
 ``hopmatch.compare``.
 
 Examples
@@ -35,6 +37,11 @@ Examples
 from __future__ import annotations
 
 # the public names of hopmatch.compare, from the submodules that define them
+from .curves import (  # noqa: F401
+    CURVE_METHODS,
+    format_curves_markdown,
+    precision_curves,
+)
 from .methods import (  # noqa: F401
     DESCRIPTIONS,
     METHODS,
@@ -79,6 +86,7 @@ __all__ = [
     "draw_row",
     "format_csv",
     "format_markdown",
+    "precision_curves",
     "run_method",
     "write_csv",
     "write_markdown",

@@ -27,7 +27,8 @@ from ..matching.matcher import HopfieldMatcher
 from ..matching.stereo_match import match_stereo
 
 __all__ = ["DESCRIPTIONS", "METHODS", "MethodResult", "NCC_HALF", "RATIO", "disparity_range",
-           "hopfield_on_sift", "ncc_wta", "orb_gms", "sgbm", "sift_cross_check"]
+           "hopfield_on_sift", "hopmatch_scored", "ncc_wta", "orb_gms", "sgbm",
+           "sgbm_uniqueness", "sift_cross_check", "sift_ratio_scored"]
 
 #: Ratio of Lowe's test in the BFMatcher baselines.
 RATIO = 0.75
@@ -299,6 +300,13 @@ def sgbm(scene: StereoScene) -> MethodResult:
     """``cv2.StereoSGBM`` (block 5, P1 = 8*25, P2 = 32*25, uniqueness 10, speckle filter)
     sampled at hopmatch's Moravec points: a left point with a valid disparity ``d`` becomes
     the match ``(xl, yl) -> (xl - d, yl)``."""
+    return sgbm_uniqueness(scene, 10)
+
+
+def sgbm_uniqueness(scene: StereoScene, uniqueness: int) -> MethodResult:
+    """:func:`sgbm` with ``uniquenessRatio=uniqueness`` (percent by which the best cost must
+    beat the second; 0 keeps every pixel the other filters keep): the parameter
+    :func:`~hopmatch.compare.curves.precision_curves` sweeps."""
     gl, gr = _gray_pair(scene)
     dmax = disparity_range(scene)
     block = 5
@@ -306,7 +314,7 @@ def sgbm(scene: StereoScene) -> MethodResult:
     num = 16 * int(math.ceil((dmax + 1) / 16))
     sg = cv2.StereoSGBM_create(minDisparity=0, numDisparities=num, blockSize=block,
                                P1=8 * block * block, P2=32 * block * block,
-                               disp12MaxDiff=1, uniquenessRatio=10,
+                               disp12MaxDiff=1, uniquenessRatio=int(uniqueness),
                                speckleWindowSize=100, speckleRange=2)
     raw = sg.compute(gl, gr)
     pts, pi = _moravec_left(gl, 0)
@@ -317,6 +325,42 @@ def sgbm(scene: StereoScene) -> MethodResult:
     right = np.column_stack([left[:, 0] - d[keep], left[:, 1]])
     return MethodResult(_f32(left), _f32(right), seconds, _f32(pts),
                         _dense_candidates(pi, dmax, gl.shape[1]))
+
+
+def hopmatch_scored(scene: StereoScene) -> tuple[MethodResult, np.ndarray]:
+    """The ``hopmatch`` method's result and each match's ``result.distances`` (lower is
+    more confident): what :func:`~hopmatch.compare.curves.precision_curves` thresholds."""
+    gl, gr = _gray_pair(scene)
+    t0 = time.perf_counter()
+    res = match_stereo(gl, gr, max_disparity=disparity_range(scene))
+    seconds = time.perf_counter() - t0
+    return (MethodResult(res.matched_left, res.matched_right, seconds, res.points_left,
+                         res.points_right), np.asarray(res.distances, dtype=np.float64))
+
+
+def sift_ratio_scored(scene: StereoScene) -> tuple[MethodResult, np.ndarray]:
+    """SIFT + BFMatcher(NORM_L2) knnMatch k=2 masked to the rectified band (as
+    ``sift-ratio-band``) keeping every best match, and each one's Lowe ratio (best distance
+    / second; 0 for a point with one candidate): ``sift-ratio-band`` keeps ratio < RATIO."""
+    gl, gr = _gray_pair(scene)
+    t0 = time.perf_counter()
+    det = cv2.SIFT_create()
+    k1, d1 = det.detectAndCompute(gl, None)
+    k2, d2 = det.detectAndCompute(gr, None)
+    kl, kr = _kp_array(k1), _kp_array(k2)
+    good, ratios = [], []
+    if d1 is not None and d2 is not None and len(k1) and len(k2) >= 2:
+        mask = _band_mask(kl, kr, disparity_range(scene))
+        for p in cv2.BFMatcher(cv2.NORM_L2).knnMatch(d1, d2, k=2, mask=mask):
+            if len(p) == 1:
+                good.append(p[0])
+                ratios.append(0.0)
+            elif len(p) == 2:
+                good.append(p[0])
+                ratios.append(p[0].distance / max(p[1].distance, 1e-12))
+    seconds = time.perf_counter() - t0
+    return (MethodResult(*_from_dmatches(kl, kr, good), seconds, kl, kr),
+            np.asarray(ratios, dtype=np.float64))
 
 
 #: Method names -> functions ``(scene) -> MethodResult``, in table order.

@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 
 from ..datasets import StereoScene
+from .curves import format_curves_markdown
 from .methods import DESCRIPTIONS
 from .tables import cell, format_markdown
 
@@ -109,9 +110,10 @@ def _cite_lines(scenes: Sequence[StereoScene]) -> list[str]:
 
 def format_results_doc(rows: Sequence[Mapping], scenes: Sequence[StereoScene], *,
                        pictures: Mapping[str, str], machine: Mapping, created: str,
-                       elapsed: float, repeat: int = 1) -> str:
+                       elapsed: float, repeat: int = 1,
+                       curves: Sequence[Mapping] = ()) -> str:
     """The text of ``docs/results.md`` (``pictures``: file name relative to ``docs/`` ->
-    caption)."""
+    caption; ``curves``: rows of :func:`~hopmatch.compare.curves.precision_curves`)."""
     by_scene: dict = {}
     for r in rows:
         by_scene.setdefault(r["scene"], []).append(r)
@@ -166,6 +168,15 @@ def format_results_doc(rows: Sequence[Mapping], scenes: Sequence[StereoScene], *
         "## Summary over all scenes",
         "",
         _summary_markdown(rows),
+        *([] if not curves else [
+            "## Precision against correct matches, by each method's own threshold",
+            "",
+            "All scenes pooled. hopmatch keeps the matches with `distance <= t` "
+            "(`result.distances`, an estimate of the probability that a match is wrong); "
+            "SIFT + band keeps Lowe ratio < t; StereoSGBM is run with `uniquenessRatio` t. "
+            "Picture: `img/precision_curves.png` below.",
+            "",
+            format_curves_markdown(curves)]),
         "## Per scene",
         "",
     ]

@@ -3,16 +3,19 @@ points it left unmatched (beyond the paper; docs/method.md).
 
 The network stays the judge. A left point that the network left unmatched gets a
 disparity only when the network would keep it: its matched neighbours (SPEC section 4's
-``neighbour_width x neighbour_height`` window) predict a disparity (their median), a row
-search of the ZNCC of the gradient windows (eqs. 8-9) finds a clear peak near it that
-searching back from the right image confirms, and the pair, alone in its row and column,
-would have a positive local field (eq. 12's bracket, with eq. 5's compatibility of eq.
-10's ``X`` against every matched neighbour and the network's input bias).
+``neighbour_width x neighbour_height`` window) predict a disparity (a local plane fitted to
+those near their median, or the median), a row search of the ZNCC of the gradient windows
+(eqs. 8-9) finds a clear peak near it that searching back from the right image confirms,
+and the pair, alone in its row and column, would have a positive local field (eq. 12's
+bracket, with eq. 5's compatibility of eq. 10's ``X`` against every matched neighbour,
+each carried along the local plane's disparity gradient so that a slanted surface counts
+as continuous, and the network's input bias). :func:`guided_rounds` repeats the pass,
+propagating from the guided matches too.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -31,6 +34,20 @@ GUIDED_MIN_ZNCC = 0.8
 #: Fewest matched neighbours a left point needs to be searched (the field test needs
 #: about three compatible ones with the default input bias).
 GUIDED_MIN_SUPPORT = 3
+#: Neighbours within this many px of their median disparity make the local plane that
+#: predicts the disparity (and its gradient) at an unmatched point.
+GUIDED_PLANE_INLIER = 2.0
+#: Fewest such neighbours for a plane (fewer: the median predicts, with no gradient).
+GUIDED_PLANE_MIN = 4
+#: Largest disparity gradient (px per px, each axis) the field test carries neighbours
+#: along: the disparity-gradient limit of Pollard, Mayhew and Frisby.
+GUIDED_GRADIENT_LIMIT = 1.0
+#: Rounds of the guided pass (:func:`guided_rounds`): each propagates from every match
+#: found before it.
+GUIDED_ROUNDS = 3
+#: Smallest uniqueness margin of the rounds after the first (they propagate from guided
+#: matches, one step further from the network's evidence).
+GUIDED_LATER_MARGIN = 0.2
 
 
 @dataclass(frozen=True)
@@ -75,6 +92,7 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
                 search: int = GUIDED_SEARCH, back: int = GUIDED_BACK,
                 min_zncc: float = GUIDED_MIN_ZNCC,
                 min_support: int = GUIDED_MIN_SUPPORT,
+                matched_similarity=None,
                 threads: int | None = None) -> GuidedMatches:
     """Guided matches of the left points the network left unmatched (rectified pairs).
 
@@ -100,6 +118,9 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
         ``+-search`` px (the uniqueness margin).
     radius, search, back, min_zncc, min_support
         See the module constants.
+    matched_similarity : (M,) float ndarray, optional
+        Eq. 7's normalised distance of each matched pair, when known (the pairs need not
+        have descriptors in ``desc_r``: :func:`guided_rounds` passes guided matches).
     threads : int, optional
         Search the queries in up to this many threads (None:
         :func:`hopmatch._threads.current_threads`), in contiguous chunks; each query's
@@ -122,8 +143,9 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     ti = np.ascontiguousarray(train_idx, dtype=np.int32)
     m_left = np.ascontiguousarray(pts_l[qi], dtype=np.float32)
     m_right = np.ascontiguousarray(pts_r[ti], dtype=np.float32)
-    m_sim = similarity_distance(desc_l, desc_r, qi, ti,
-                                gain_tolerance=config.gain_tolerance)
+    m_sim = (similarity_distance(desc_l, desc_r, qi, ti, gain_tolerance=config.gain_tolerance)
+             if matched_similarity is None
+             else np.asarray(matched_similarity, dtype=np.float64))
     matched = np.zeros(n_left, dtype=bool)
     matched[qi] = True
     queries = np.flatnonzero(~matched)
@@ -134,7 +156,11 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     if len(rows) == 0:
         return empty_guided()
     disp = m_left[:, 0].astype(np.float64) - m_right[:, 0]
-    pred = _k.neighbour_medians(off, idx, disp)[rows]
+    pred, gx, gy = _k.neighbour_planes(np.ascontiguousarray(pts_l[queries]), off, idx,
+                                       m_left, disp, GUIDED_PLANE_INLIER, GUIDED_PLANE_MIN)
+    pred = pred[rows]
+    gx = np.clip(gx[rows], -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
+    gy = np.clip(gy[rows], -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
     q = queries[rows].astype(np.int64)
     yoff = np.ascontiguousarray(np.asarray(y_offset, dtype=np.float64)[q])
     centre = np.ascontiguousarray(pts_l[q, 0].astype(np.float64) - pred)
@@ -147,10 +173,44 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     yr = pts_l[q, 1].astype(np.float64) - yoff
     u = _k.continuity_field(np.ascontiguousarray(pts_l[q]), np.where(ok, xr, np.nan), yr,
                             sim, off, idx, rows, m_left, m_right, m_sim, config.theta,
-                            config.slope, config.similarity_weight, config.input_bias)
+                            config.slope, config.similarity_weight, config.input_bias,
+                            gx, gy)
     acc = np.flatnonzero(ok & (np.nan_to_num(u, nan=-np.inf) > 0))
     return GuidedMatches(
         query_idx=q[acc].astype(np.int32),
         right_points=np.c_[xr[acc], yr[acc]].astype(np.float32),
         distances=match_distance(u[acc]).astype(np.float32), fields=u[acc],
         zncc=best[acc], second=second[acc], similarity=sim[acc])
+
+
+def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_offset,
+                  config, *, margin: float = 0.1, rounds: int = GUIDED_ROUNDS,
+                  later_margin: float = GUIDED_LATER_MARGIN,
+                  threads: int | None = None) -> GuidedMatches:
+    """:func:`guided_pass` run ``rounds`` times: round r propagates from the network's
+    matches and the guided matches of rounds 1..r-1 to the left points still unmatched,
+    with the uniqueness margin ``margin`` in the first round and ``max(margin,
+    later_margin)`` after it. Arguments as :func:`guided_pass`; returns the guided matches
+    of all rounds, in round order (stops early when a round finds none)."""
+    qi = np.ascontiguousarray(query_idx, dtype=np.int32)
+    ti = np.ascontiguousarray(train_idx, dtype=np.int32)
+    if len(qi) == 0 or len(pts_l) == 0 or desc_l.dtype == np.uint8:
+        return empty_guided()
+    sim = similarity_distance(desc_l, desc_r, qi, ti, gain_tolerance=config.gain_tolerance)
+    right = pts_r
+    found = []
+    for r in range(max(int(rounds), 1)):
+        gm = guided_pass(pts_l, right, desc_l, desc_r, g_l, g_r, qi, ti, y_offset, config,
+                         margin=margin if r == 0 else max(margin, later_margin),
+                         matched_similarity=sim, threads=threads)
+        if len(gm.query_idx) == 0:
+            break
+        found.append(gm)
+        qi = np.r_[qi, gm.query_idx].astype(np.int32)
+        ti = np.r_[ti, len(right) + np.arange(len(gm.query_idx))].astype(np.int32)
+        right = np.r_[right, gm.right_points].astype(np.float32)
+        sim = np.r_[sim, gm.similarity]
+    if not found:
+        return empty_guided()
+    return GuidedMatches(*(np.concatenate([getattr(g, f.name) for g in found])
+                           for f in fields(GuidedMatches)))

@@ -14,8 +14,9 @@ from .._validate import as_fundamental_matrix, check_coordinate_range
 from .._warnings import warn
 from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
+from .confidence import confidence_distances, fields_of_distances
 from .geometry import EpipolarGeometry, GeometryWarning
-from .guided import GuidedMatches, guided_pass
+from .guided import GuidedMatches, guided_pass, guided_rounds
 from .matcher import HopfieldMatcher, dmatches
 from .network import NetworkResult, PairInfo, match_pair
 from .params import MatcherConfig, matcher_config
@@ -73,9 +74,13 @@ class StereoMatchResult:
         Matches as indices into ``points_left`` / ``points_right``: the network's first
         (in its order, ``network.query_idx``), then the guided ones.
     distances : (M,) float32 ndarray
-        ``DMatch.distance`` of each match: ``1 / (1 + exp(u))``, u the match's local field
-        (see :class:`HopfieldMatcher`); for a guided match, the field of the guided pair
-        among its matched neighbours.
+        ``DMatch.distance`` of each match, lower is better. With the refinement (the
+        default): ``1 - p``, p the estimated probability that the match is correct at
+        1 px from its local field u and the curvature of the ZNCC at its refined peak
+        (:func:`~hopmatch.matching.confidence.confidence_distances`), one scale for both
+        passes. Without it (``refine=False``, ``preset="paper"``): ``1 / (1 + exp(u))``
+        (see :class:`HopfieldMatcher`); for a guided match, u is the field of the guided
+        pair among its matched neighbours. ``network.distances`` is always the latter.
     network : NetworkResult
         Everything the network computed (fields, energy, energy trace...), unrefined.
     timings : dict
@@ -352,9 +357,9 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
     n_right = len(pts_r)
     gm = None
     if config.guided:
-        gm = guided_pass(pts_l, pts_r, descriptors[0], descriptors[1], gradients[0],
-                         gradients[1], net.query_idx, net.train_idx, offset.at(pts_l),
-                         config, margin=config.guided_margin, threads=threads)
+        gm = guided_rounds(pts_l, pts_r, descriptors[0], descriptors[1], gradients[0],
+                           gradients[1], net.query_idx, net.train_idx, offset.at(pts_l),
+                           config, margin=config.guided_margin, threads=threads)
     t1 = time.perf_counter()
     k = 0 if gm is None else len(gm.query_idx)
     query_idx = net.query_idx if k == 0 else np.r_[net.query_idx, gm.query_idx].astype(np.int32)
@@ -379,6 +384,10 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
     passes = np.r_[np.full(len(net.query_idx), PASS_NETWORK, np.uint8),
                    np.full(k, PASS_GUIDED, np.uint8)]
     distances = net.distances if k == 0 else np.r_[net.distances, gm.distances]
+    if refinement is not None:  # one scale for both passes: field and peak curvature
+        u = fields_of_distances(net.distances)
+        u = u if k == 0 else np.r_[u, gm.fields]
+        distances = confidence_distances(u, refinement.curvature)
     return dataclasses.replace(
         result, points_right=points_right, responses_right=responses_right,
         query_idx=query_idx, train_idx=train_idx, distances=distances.astype(np.float32),

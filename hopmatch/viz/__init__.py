@@ -3,7 +3,8 @@
 - :mod:`hopmatch.viz.draw`: OpenCV drawing (:func:`draw_matches`, :func:`draw_disparity`,
   :func:`draw_keypoints`).
 - :mod:`hopmatch.viz.plots`: matplotlib plots (:func:`plot_energy`,
-  :func:`plot_precision_vs_correct`, :func:`plot_error_histogram` and their ``render_*``
+  :func:`plot_precision_vs_correct`, :func:`plot_precision_curves`,
+  :func:`plot_error_histogram` and their ``render_*``
   forms returning bytes). matplotlib is imported when a plot is drawn (``pip install
   hopmatch[all]``), and pyplot's global state is never touched.
 - :mod:`hopmatch.viz.figures`: the paper's Figure 5 (:func:`draw_keypoints_on_gradient`)
@@ -73,9 +74,11 @@ from .plots import (  # noqa: F401
     ERROR_BINS,
     plot_energy,
     plot_error_histogram,
+    plot_precision_curves,
     plot_precision_vs_correct,
     render_energy,
     render_error_histogram,
+    render_precision_curves,
     render_precision_vs_correct,
 )
 
@@ -89,9 +92,11 @@ __all__ = [
     "draw_matches",
     "plot_energy",
     "plot_error_histogram",
+    "plot_precision_curves",
     "plot_precision_vs_correct",
     "render_energy",
     "render_error_histogram",
+    "render_precision_curves",
     "render_precision_vs_correct",
     "write_image_atomic",
     "write_text_atomic",

@@ -26,9 +26,11 @@ __all__ = [
     "ERROR_BINS",
     "plot_energy",
     "plot_error_histogram",
+    "plot_precision_curves",
     "plot_precision_vs_correct",
     "render_energy",
     "render_error_histogram",
+    "render_precision_curves",
     "render_precision_vs_correct",
 ]
 
@@ -223,6 +225,62 @@ def plot_precision_vs_correct(rows, path, threshold: float = 1.0,
     path = Path(path)
     write_bytes_atomic(path, render_precision_vs_correct(rows, threshold, _format_of(path),
                                                          title))
+    return path
+
+
+def render_precision_curves(rows, fmt: str = "png", title: str | None = None) -> bytes:
+    """Precision@1 against correct@1 as each method's threshold moves, one line per
+    method (rows of :func:`hopmatch.compare.precision_curves`: ``method``, ``parameter``,
+    ``value``, ``correct@1``, ``precision@1``), each point labelled with its threshold;
+    returns the encoded file.
+
+    Raises
+    ------
+    InvalidArgumentError
+        A row is not a mapping with those keys.
+    ImportError
+        matplotlib is not installed (``pip install hopmatch[all]``).
+    """
+    keys = {"method", "parameter", "value", "correct@1", "precision@1"}
+    rows = list(rows)
+    for row in rows:
+        if not isinstance(row, Mapping) or not keys <= set(row):
+            raise InvalidArgumentError(
+                f"each row must be a mapping with {sorted(keys)} (as "
+                f"hopmatch.compare.precision_curves returns), got {describe(row)}")
+    fig = _figure((7.4, 4.8))
+    ax = fig.add_subplot(1, 1, 1)
+    methods = list(dict.fromkeys(row["method"] for row in rows))
+    cmap = _tab_colours(len(methods))
+    for k, method in enumerate(methods):
+        mine = [r for r in rows if r["method"] == method and not np.isnan(r["precision@1"])]
+        if not mine:
+            continue
+        x = np.maximum([r["correct@1"] for r in mine], 1)
+        y = [r["precision@1"] for r in mine]
+        ax.plot(x, y, marker=_MARKERS[k % len(_MARKERS)], color=cmap[k], markersize=4,
+                label=f"{method} ({mine[0]['parameter']} ...)")
+        for r, xi, yi in zip(mine, x, y):
+            ax.annotate(f"{r['value']:g}", (xi, yi), textcoords="offset points",
+                        xytext=(3, 3), fontsize=6, color=cmap[k])
+    if not rows:
+        ax.text(0.5, 0.5, "no results", ha="center", va="center", transform=ax.transAxes)
+    ax.set_xscale("log")
+    ax.set_xlabel("correct matches within 1 px, all scenes pooled (log scale)")
+    ax.set_ylabel("precision@1 (pooled)")
+    ax.set_title(title or "Precision against correct matches as each method's threshold "
+                          "moves", fontsize=11)
+    ax.grid(True, alpha=0.3, which="both")
+    if methods:
+        ax.legend(loc="lower left", fontsize=8, frameon=False)
+    return _encode(fig, fmt)
+
+
+def plot_precision_curves(rows, path, title: str | None = None) -> Path:
+    """:func:`render_precision_curves` saved (atomically) to ``path``; its suffix picks the
+    format. Returns the path."""
+    path = Path(path)
+    write_bytes_atomic(path, render_precision_curves(rows, _format_of(path), title))
     return path
 
 

@@ -26,8 +26,8 @@ def test_eval_writes_tables_and_plots(shared_data, tmp_path):
     assert res.stderr == ""  # progress only on a terminal
     assert sorted(p.name for p in out.iterdir()) == [
         "error_histogram.png", "matches_middlebury_tsukuba_hopmatch.png",
-        "matches_middlebury_tsukuba_ncc-wta.png", "precision_vs_correct.png",
-        "results.csv", "results.md"]
+        "matches_middlebury_tsukuba_ncc-wta.png", "precision_curves.png",
+        "precision_vs_correct.png", "results.csv", "results.md"]
     assert "| middlebury/tsukuba | ncc-wta |" in res.stdout
     assert (out / "results.md").read_text() in res.stdout
     table = list(csv.DictReader((out / "results.csv").open()))

@@ -11,7 +11,15 @@ import pytest
 import hopmatch
 from hopmatch._kernels import guided as _k
 from hopmatch.feature.descriptor import gradient_windows
-from hopmatch.matching.guided import GUIDED_MIN_ZNCC, GUIDED_RADIUS, guided_pass
+from hopmatch.matching.guided import (
+    GUIDED_GRADIENT_LIMIT,
+    GUIDED_MIN_ZNCC,
+    GUIDED_PLANE_INLIER,
+    GUIDED_PLANE_MIN,
+    GUIDED_RADIUS,
+    guided_pass,
+    guided_rounds,
+)
 from hopmatch.matching.params import matcher_config
 from hopmatch.matching.similarity import similarity_distance
 from hopmatch.matching.stereo_match import PASS_GUIDED, PASS_NETWORK
@@ -89,14 +97,45 @@ def test_continuity_field_matches_the_reference():
     yr = pq[:, 1] - 0.2
     sim = RNG.uniform(0, 0.5, 5)
     off, idx = _k.query_neighbours(pq, ml, np.float32(20), np.float32(10))
+    zero = np.zeros(5)
     u = _k.continuity_field(pq, xr, yr, sim, off, idx, np.arange(5), ml, mr, msim, 2.0, 2.0,
-                            1.0, -2.5)
+                            1.0, -2.5, zero, zero)
+    gx, gy = RNG.uniform(-0.5, 0.5, 5), RNG.uniform(-0.5, 0.5, 5)
+    ug = _k.continuity_field(pq, xr, yr, sim, off, idx, np.arange(5), ml, mr, msim, 2.0,
+                             2.0, 1.0, -2.5, gx, gy)
     for q in range(5):
         j = idx[off[q]:off[q + 1]]
-        ref = ng.field((float(pq[q, 0]), float(pq[q, 1])), (xr[q], yr[q]), sim[q],
-                       ml[j].astype(np.float64), mr[j].astype(np.float64), msim[j], 2.0,
-                       2.0, 1.0, -2.5)
-        assert u[q] == pytest.approx(ref, abs=1e-9)
+        args = ((float(pq[q, 0]), float(pq[q, 1])), (xr[q], yr[q]), sim[q],
+                ml[j].astype(np.float64), mr[j].astype(np.float64), msim[j], 2.0, 2.0, 1.0,
+                -2.5)
+        assert u[q] == pytest.approx(ng.field(*args), abs=1e-9)
+        assert ug[q] == pytest.approx(ng.field(*args, gradient=(gx[q], gy[q])), abs=1e-9)
+
+
+def test_neighbour_planes_match_the_reference():
+    """Queries on a slanted plane (some neighbours off it, some with too few inliers or
+    collinear ones): the kernel's prediction and gradient equal the reference's."""
+    matched = RNG.uniform(0, 100, (300, 2)).astype(np.float32)
+    disp = 10.0 + 0.3 * matched[:, 0] - 0.2 * matched[:, 1] + RNG.normal(0, 0.2, 300)
+    disp[::7] += 15.0  # a second surface: outliers of the plane
+    queries = np.r_[RNG.uniform(10, 90, (40, 2)), [[50.0, 50.0]]].astype(np.float32)
+    off, idx = _k.query_neighbours(queries, matched, np.float32(20), np.float32(10))
+    # the last query: three collinear neighbours only (degenerate: the median)
+    line = np.array([[45, 50], [50, 50], [55, 50]], np.float32)
+    idx = np.r_[idx[:off[-2]], len(matched) + np.arange(3)].astype(np.int32)
+    off = off.copy()
+    off[-1] = off[-2] + 3
+    matched = np.r_[matched, line]
+    disp = np.r_[disp, [20.0, 21.0, 22.0]]
+    pred, gx, gy = _k.neighbour_planes(queries, off, idx, matched, disp, 2.0, 3)
+    planes = 0
+    for q in range(len(queries)):
+        j = idx[off[q]:off[q + 1]]
+        a, bx, by = ng.local_plane(queries[q], matched[j], disp[j], 2.0, 3)
+        assert pred[q] == pytest.approx(a, abs=1e-6), q
+        assert gx[q] == pytest.approx(bx, abs=1e-6) and gy[q] == pytest.approx(by, abs=1e-6)
+        planes += bx != 0.0
+    assert planes > len(queries) // 2 and gx[-1] == 0.0 and pred[-1] == 21.0
 
 
 def _scene(shift=6, noise=0.0):
@@ -138,7 +177,11 @@ def test_guided_matches_pass_every_acceptance_test():
     for m, i in enumerate(gm.query_idx):
         j = np.array(sorted(nb[m]))
         assert len(j) >= 3
-        centre = float(pl[i, 0]) - float(np.median(disp[j]))
+        pred, gx, gy = ng.local_plane(pl[i], ml[j], disp[j], GUIDED_PLANE_INLIER,
+                                      GUIDED_PLANE_MIN)
+        grad = tuple(float(np.clip(g, -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT))
+                     for g in (gx, gy))
+        centre = float(pl[i, 0]) - pred
         ok, best, second, xr, sim = ng.row_search_one(
             gl, gr, float(pl[i, 0]), float(pl[i, 1]), dl[i], centre, 0.0, GUIDED_RADIUS, 3,
             1, GUIDED_MIN_ZNCC, 0.1)
@@ -148,7 +191,7 @@ def test_guided_matches_pass_every_acceptance_test():
         u = ng.field((float(pl[i, 0]), float(pl[i, 1])), (xr, float(pl[i, 1])), sim,
                      ml[j].astype(np.float64), mr[j].astype(np.float64), msim[j],
                      config.theta, config.slope, config.similarity_weight,
-                     config.input_bias)
+                     config.input_bias, gradient=grad)
         assert u > 0 and u == pytest.approx(gm.fields[m], abs=1e-6)
 
 
@@ -191,3 +234,32 @@ def test_guided_pass_without_network_matches_finds_nothing():
     gm = guided_pass(pl, pr, dl, dr, gl, gr, np.zeros(0, np.int32), np.zeros(0, np.int32),
                      np.zeros(len(pl)), matcher_config({}))
     assert len(gm.query_idx) == 0 and gm.right_points.shape == (0, 2)
+
+
+def test_guided_rounds_propagate_from_earlier_rounds():
+    """Round 2 starts from the network's matches and round 1's: its matches are left
+    points neither matched, each passing the tests of guided_pass run on that union (the
+    first round is guided_pass itself)."""
+    left, right = _scene(noise=6.0)
+    det = hopmatch.DericheMoravecDetector()
+    pl, _, dl, gl = det.detect_and_describe(left)
+    pr, _, dr, gr = det.detect_and_describe(right)
+    net = hopmatch.match_stereo(left, right, max_disparity=12, guided=False,
+                                refine=False).network
+    qi, ti = net.query_idx[::4], net.train_idx[::4]
+    yoff = np.zeros(len(pl))
+    one = guided_pass(pl, pr, dl, dr, gl, gr, qi, ti, yoff, net.config, margin=0.1)
+    two = guided_rounds(pl, pr, dl, dr, gl, gr, qi, ti, yoff, net.config, margin=0.1,
+                        rounds=2, later_margin=0.2)
+    k = len(one.query_idx)
+    np.testing.assert_array_equal(two.query_idx[:k], one.query_idx)
+    assert len(two.query_idx) > k and len(np.unique(two.query_idx)) == len(two.query_idx)
+    assert not np.isin(two.query_idx, qi).any()
+    # round 2 is guided_pass on the union, with the later margin
+    sim = np.r_[similarity_distance(dl, dr, qi.astype(np.int64), ti.astype(np.int64)),
+                one.similarity]
+    again = guided_pass(pl, np.r_[pr, one.right_points].astype(np.float32), dl, dr, gl, gr,
+                        np.r_[qi, one.query_idx], np.r_[ti, len(pr) + np.arange(k)], yoff,
+                        net.config, margin=0.2, matched_similarity=sim)
+    np.testing.assert_array_equal(two.query_idx[k:], again.query_idx)
+    np.testing.assert_array_equal(two.fields[k:], again.fields)

@@ -59,3 +59,17 @@ def test_render_and_plot_write_the_same_bytes(tmp_path):
     assert b"<svg" in svg[:500]
     with pytest.raises(TypeError, match="errors_by_method"):
         viz.render_error_histogram([0.1, 0.2])
+
+
+def test_precision_curves_plot(tmp_path):
+    pytest.importorskip("matplotlib")
+    rows = [{"method": "a", "parameter": "distance <=", "value": v, "correct@1": c,
+             "precision@1": p} for v, c, p in ((0.01, 10, 1.0), (0.1, 90, 0.95))]
+    rows.append({"method": "b", "parameter": "ratio <", "value": 0.8, "correct@1": 0,
+                 "precision@1": float("nan")})
+    path = viz.plot_precision_curves(rows, tmp_path / "c.png")
+    assert cv2.imread(str(path)) is not None
+    assert path.read_bytes() == viz.render_precision_curves(rows)
+    with pytest.raises(ValueError, match="precision_curves"):
+        viz.plot_precision_curves([{"method": "m"}], tmp_path / "d.png")
+    assert not (tmp_path / "d.png").exists()
