@@ -256,7 +256,8 @@ def test_guided_rounds_propagate_from_earlier_rounds():
     assert len(two.query_idx) > k and len(np.unique(two.query_idx)) == len(two.query_idx)
     assert not np.isin(two.query_idx, qi).any()
     # round 2 is guided_pass on the union, with the later margin
-    sim = np.r_[similarity_distance(dl, dr, qi.astype(np.int64), ti.astype(np.int64)),
+    sim = np.r_[similarity_distance(dl, dr, qi.astype(np.int32), ti.astype(np.int32),
+                                    gain_tolerance=net.config.gain_tolerance),
                 one.similarity]
     again = guided_pass(pl, np.r_[pr, one.right_points].astype(np.float32), dl, dr, gl, gr,
                         np.r_[qi, one.query_idx], np.r_[ti, len(pr) + np.arange(k)], yoff,
