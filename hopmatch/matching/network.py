@@ -42,7 +42,6 @@ from .diagnostics import warn_geometry, warn_if_few_matches, warn_if_unrectified
 from .disambiguate import disambiguate, vertically_consistent
 from .disparity_range import resolve_disparity_range, run_in_range, search_range, warn_fallback
 from .params import MatcherConfig, check_disparity_order, matcher_config
-from .vertical import RowOffsetPrior, row_offset_prior
 from .similarity import (
     WINDOW_MEAN_TOL,  # noqa: E402, F401
     match_distance,
@@ -50,6 +49,7 @@ from .similarity import (
     similarity_distance,
     window_contrasts,
 )
+from .vertical import RowOffsetPrior, row_offset_prior
 
 
 @dataclass(frozen=True)
