@@ -57,24 +57,21 @@ FEW_MATCHES_FRACTION = 0.01
 FEW_MATCHES_CONTRAST = 1.5
 
 
-def rectification_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity, max_vertical):
-    """Median ``|y_left - y_right|`` of unambiguous best look-alikes in a generous band.
-
-    Up to :data:`RECTIFICATION_SAMPLE` left points (evenly spaced in the keypoint order) are
-    compared by the network's similarity distance with every right point within the
-    disparity range and ``band = max(16, 4 * max_vertical)`` rows. A point counts when its
-    best candidate is clearly better than its second (distance ratio below
-    :data:`RECTIFICATION_RATIO`). Returns ``(median |dy|, number of points counted,
-    fraction of them with |dy| <= max(1, max_vertical))``, or None when there is too little
-    to judge (fewer than 2 x RECTIFICATION_MIN_EVIDENCE points
-    on a side, or more than RECTIFICATION_MAX_PAIRS pairs to compare).
-    """
+def clear_look_alikes(q_pts, t_pts, qd, td, min_disparity, max_disparity, band,
+                      sample_size):
+    """``(sample, best)``: the left points (indices into ``q_pts``) whose best look-alike
+    among the right points within the disparity range and ``band`` rows is clearly better
+    than their second (distance ratio below :data:`RECTIFICATION_RATIO`), and that
+    look-alike; up to ``sample_size`` left points, evenly spaced in the keypoint order, are
+    compared by the network's similarity distance (eq. 7). None when there is too little
+    to judge (fewer than 2 x RECTIFICATION_MIN_EVIDENCE points on a side, fewer than
+    RECTIFICATION_MIN_EVIDENCE clear ones, or more than RECTIFICATION_MAX_PAIRS pairs to
+    compare)."""
     if min(len(q_pts), len(t_pts)) < 2 * RECTIFICATION_MIN_EVIDENCE:
         return None
-    n = min(len(q_pts), RECTIFICATION_SAMPLE)
+    n = min(len(q_pts), sample_size)
     sample = np.unique(np.linspace(0, len(q_pts) - 1, n).astype(np.int64))
     left = np.ascontiguousarray(q_pts[sample])
-    band = max(16.0, 4.0 * max_vertical)
     try:
         ni, nk = candidate_pairs(left, t_pts, min_disparity, max_disparity, band,
                                  RECTIFICATION_MAX_PAIRS)
@@ -93,8 +90,25 @@ def rectification_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity, m
     best = best[clear]
     if len(best) < RECTIFICATION_MIN_EVIDENCE:
         return None
-    dy = np.abs(left[ni_o[best], 1].astype(np.float64) - t_pts[nk_o[best], 1])
-    return (float(np.median(dy)), int(len(best)),
+    return sample[ni_o[best]], nk_o[best]
+
+
+def rectification_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity, max_vertical):
+    """Median ``|y_left - y_right|`` of unambiguous best look-alikes in a generous band.
+
+    Up to :data:`RECTIFICATION_SAMPLE` left points are compared with every right point
+    within the disparity range and ``band = max(16, 4 * max_vertical)`` rows
+    (:func:`clear_look_alikes`). Returns ``(median |dy|, number of points counted,
+    fraction of them with |dy| <= max(1, max_vertical))``, or None when there is too little
+    to judge.
+    """
+    found = clear_look_alikes(q_pts, t_pts, qd, td, min_disparity, max_disparity,
+                              max(16.0, 4.0 * max_vertical), RECTIFICATION_SAMPLE)
+    if found is None:
+        return None
+    qi, ti = found
+    dy = np.abs(q_pts[qi, 1].astype(np.float64) - t_pts[ti, 1])
+    return (float(np.median(dy)), int(len(qi)),
             float(np.mean(dy <= max(1.0, max_vertical))))
 
 

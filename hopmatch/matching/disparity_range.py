@@ -147,6 +147,17 @@ def coarse_extent(config, q_pts, t_pts, qd, td, bottom: float, top: float, width
     return lo, hi, n
 
 
+def search_range(config, query_size, q_pts, t_pts) -> tuple[float, float]:
+    """``(bottom, top)``: the given range (``min_disparity`` None: 0), or with
+    ``max_disparity`` None the coarse pass's search range ``[min_disparity or -f W, f W]``
+    (``f`` = :data:`SEARCH_FRACTION`, ``W`` = :func:`search_width`)."""
+    floor = config.min_disparity
+    if config.max_disparity is not None:
+        return 0.0 if floor is None else float(floor), float(config.max_disparity)
+    top = SEARCH_FRACTION * search_width(query_size, q_pts, t_pts)
+    return (-top if floor is None else min(float(floor), top)), top
+
+
 def resolve_disparity_range(config, q_pts, t_pts, qd, td, query_size, run_network, *,
                             mask=None, fundamental=None) -> DisparityRange:
     """The search range of the full pass.
@@ -178,8 +189,7 @@ def resolve_disparity_range(config, q_pts, t_pts, qd, td, query_size, run_networ
         return DisparityRange(0.0 if floor is None else float(floor),
                               float(config.max_disparity), "given")
     width = search_width(query_size, q_pts, t_pts)
-    top = SEARCH_FRACTION * width
-    bottom = -top if floor is None else min(float(floor), top)
+    bottom, top = search_range(config, query_size, q_pts, t_pts)
     fallback = DisparityRange(bottom, top, "fallback")
     if not len(q_pts) or not len(t_pts) or not len(qd) or not len(td):
         return fallback._replace(source="empty")

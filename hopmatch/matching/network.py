@@ -40,7 +40,7 @@ from .candidates import (  # noqa: E402, F401
 )
 from .diagnostics import warn_geometry, warn_if_few_matches, warn_if_unrectified
 from .disambiguate import disambiguate, vertically_consistent
-from .disparity_range import resolve_disparity_range, run_in_range, warn_fallback
+from .disparity_range import resolve_disparity_range, run_in_range, search_range, warn_fallback
 from .params import MatcherConfig, check_disparity_order, matcher_config
 from .similarity import (
     WINDOW_MEAN_TOL,  # noqa: E402, F401
@@ -49,6 +49,7 @@ from .similarity import (
     similarity_distance,
     window_contrasts,
 )
+from .vertical import RowOffsetPrior, row_offset_prior
 
 
 @dataclass(frozen=True)
@@ -84,6 +85,11 @@ class NetworkResult:
     config : MatcherConfig or None
         The parameters the network ran with, ``max_disparity`` resolved (None only for
         results built by hand).
+    row_prior : RowOffsetPrior or None
+        The residual vertical offset measured before the network, which the search band
+        followed (:func:`~hopmatch.matching.vertical.row_offset_prior`); None when the band
+        was the plain rows (a well rectified pair, a fundamental matrix, or
+        ``vertical_model="median"``).
     """
 
     query_idx: np.ndarray
@@ -101,6 +107,7 @@ class NetworkResult:
     energy: float
     energy_trace: np.ndarray = field(default_factory=lambda: np.zeros(0))
     config: MatcherConfig | None = None
+    row_prior: RowOffsetPrior | None = None
 
 
 class PairInfo(NamedTuple):
@@ -251,15 +258,24 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     mask = as_mask(mask, (len(q_pts), len(t_pts)), "mask", of="(n_query, n_train)")
     check_energy_trace(config.max_iterations, record_energy)
     check_neighbour_budget(q_pts, config)
-    found = resolve_disparity_range(config, q_pts, t_pts, qd, td, pair.query_size,
+    prior, t_search = None, t_pts
+    if fundamental is None and config.vertical_model == "plane" and len(qd) and len(td):
+        prior = row_offset_prior(q_pts, t_pts, qd, td,
+                                 *search_range(config, pair.query_size, q_pts, t_pts),
+                                 config.max_vertical)
+        if prior is not None:
+            t_search = prior.aligned(t_pts)
+    found = resolve_disparity_range(config, q_pts, t_search, qd, td, pair.query_size,
                                     run_hopfield_network, mask=mask, fundamental=fundamental)
     check_disparity_order(found.min_disparity, found.max_disparity)
     config = dataclasses.replace(config, min_disparity=found.min_disparity,
                                  max_disparity=found.max_disparity)
     warn_geometry(pair.query_size, pair.train_size, fundamental, config)
-    result, config = run_in_range(run_hopfield_network, found, config, q_pts, t_pts, qd, td,
-                                  mask=mask, record_energy=record_energy,
+    result, config = run_in_range(run_hopfield_network, found, config, q_pts, t_search, qd,
+                                  td, mask=mask, record_energy=record_energy,
                                   fundamental=fundamental)
+    if prior is not None:
+        result = dataclasses.replace(result, row_prior=prior)
     # one warning for one cause: a pair diagnosed as not rectified or not a stereo pair
     # also defeats the range search, and the diagnosis says more than the others would
     if not warn_if_unrectified(len(result.query_idx), q_pts, t_pts, qd, td, fundamental,

@@ -8,6 +8,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .diagnostics import clear_look_alikes
+
 #: Fewest matches a plane is fitted to; with fewer the model is their median.
 PLANE_MIN_MATCHES = 50
 #: Iterations of the robust (reweighted least-squares) plane fit.
@@ -95,3 +97,62 @@ def fit_row_offset(left: np.ndarray, dy: np.ndarray, weights=None) -> RowOffset:
             return base
         coef = np.linalg.lstsq(a, dy * sw, rcond=None)[0]
     return RowOffset(float(coef[0]), float(coef[1]), float(coef[2]), cx, cy)
+
+
+#: The row-offset prior (:func:`row_offset_prior`): left points sampled, the band searched
+#: around their rows (at least), the share of the sampled look-alikes the plane must fit
+#: within 1 px, and the median offset over the left points below which nothing is shifted
+#: (KITTI #70's spurious plane reaches 1 px at a corner, 0.3 px at the median).
+PRIOR_SAMPLE = 200
+PRIOR_BAND = 4.0
+PRIOR_MIN_SUPPORT = 0.5
+PRIOR_MIN_SHIFT = 0.5
+
+
+class RowOffsetPrior(NamedTuple):
+    """A residual vertical offset measured before the network (:func:`row_offset_prior`):
+    the plane, and the median disparity of the look-alikes it was fitted to."""
+
+    offset: RowOffset
+    disparity: float
+
+    def aligned(self, right: np.ndarray) -> np.ndarray:
+        """(N, 2) float32: the right points moved down by the offset at their left
+        position (``x + disparity``), so that the search band of each left point is
+        centred on its partner's row."""
+        p = np.asarray(right, dtype=np.float64)
+        shift = self.offset.at(np.c_[p[:, 0] + self.disparity, p[:, 1]])
+        out = np.array(right, dtype=np.float32, copy=True)
+        out[:, 1] = (p[:, 1] + shift).astype(np.float32)
+        return out
+
+
+def row_offset_prior(q_pts, t_pts, qd, td, min_disparity, max_disparity,
+                     max_vertical) -> RowOffsetPrior | None:
+    """The residual vertical offset of a rectified pair, measured before the network so that
+    its search band can follow it (beyond the paper; docs/method.md §4.1).
+
+    The band of the network is ``max_vertical`` rows (1 px by default): a rectification that
+    leaves 1.5 px of vertical disparity, or a rotation of 0.3 degrees, puts most true
+    partners outside it. Up to :data:`PRIOR_SAMPLE` left points are compared with the right
+    points within the disparity range and ``max(PRIOR_BAND, 4 max_vertical)`` rows; the
+    robust plane (:func:`fit_row_offset`) through the clear look-alikes is the prior when
+    it varies slowly (:meth:`RowOffset.is_residual`), fits at least
+    :data:`PRIOR_MIN_SUPPORT` of them within 1 px, and is at least
+    :data:`PRIOR_MIN_SHIFT` px at the median left point. None otherwise (a well rectified
+    pair: the network searches the plain band, as before).
+    """
+    found = clear_look_alikes(q_pts, t_pts, qd, td, min_disparity, max_disparity,
+                              max(PRIOR_BAND, 4.0 * max_vertical), PRIOR_SAMPLE)
+    if found is None:
+        return None
+    qi, ti = found
+    left = q_pts[qi].astype(np.float64)
+    dy = left[:, 1] - t_pts[ti, 1]
+    offset = fit_row_offset(left, dy)
+    if not offset.is_residual() or np.mean(np.abs(offset.at(left) - dy) <= 1.0) \
+            < PRIOR_MIN_SUPPORT:
+        return None
+    if np.median(np.abs(offset.at(q_pts))) < PRIOR_MIN_SHIFT:
+        return None
+    return RowOffsetPrior(offset, float(np.median(left[:, 0] - t_pts[ti, 0])))
