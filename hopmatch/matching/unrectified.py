@@ -250,15 +250,45 @@ def network_range(config, q_l, q_r, desc_l, desc_r, width, fundamental, inlier_h
     return RANGE_START, hi + pad - shift, shift
 
 
+@dataclasses.dataclass(frozen=True)
+class SearchFrame:
+    """Where the network of :func:`match_unrectified` searched, for the steps after it.
+
+    Attributes
+    ----------
+    mode : str
+        ``'aligned'``, ``'rectified'`` or ``'epipolar'`` (:func:`search_frame`).
+    to_aligned : (3, 3) float64 ndarray
+        Right image -> left image's frame (:func:`aligned_frame`).
+    shift : int or None
+        ``'aligned'`` only: the whole-pixel x shift ``s`` of the aligned right points in the
+        network's frame (``q_r = x_a + s``, ``q_l = x_l``), None otherwise.
+    right_points : (N, 2) float32 ndarray
+        The right points in the left image's frame, as detected there.
+    grays, gradients, descriptors : tuples of (left, aligned right)
+        The images the points were detected on (the right one warped into the left frame,
+        both after :func:`equalise_sharpness`) and the points' windows.
+    """
+
+    mode: str
+    to_aligned: np.ndarray
+    shift: int | None
+    right_points: np.ndarray
+    grays: tuple
+    gradients: tuple
+    descriptors: tuple
+
+
 def match_unrectified(left, right, detector, config, *, mask_left=None, mask_right=None,
                       record_energy=False):
     """The pipeline of this module's docstring.
 
-    Returns ``(pts_l, resp_l, pts_r, resp_r, network, geometry, timings)``: points in the
-    given images' coordinates, the :class:`~hopmatch.matching.network.NetworkResult` (or
-    None when no geometry was accepted: ``geometry.reason`` says why), the
-    :class:`~hopmatch.matching.geometry.EpipolarGeometry` used and the seconds spent in
-    ``geometry``, ``align``, ``detect_left``, ``detect_right`` and ``match``.
+    Returns ``(pts_l, resp_l, pts_r, resp_r, network, geometry, timings, frame)``: points
+    in the given images' coordinates, the :class:`~hopmatch.matching.network.NetworkResult`
+    (or None when no geometry was accepted: ``geometry.reason`` says why), the
+    :class:`~hopmatch.matching.geometry.EpipolarGeometry` used, the seconds spent in
+    ``geometry``, ``align``, ``detect_left``, ``detect_right`` and ``match``, and the
+    :class:`SearchFrame` of the network (None without geometry).
     """
     t0 = time.perf_counter()
     limit = detector.getMaxPixels()
@@ -274,20 +304,23 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
         pts_l, resp_l, _, _ = detector.detect_and_describe(left_gray, m_l, name="left")
         timings["detect_left"] = time.perf_counter() - t1
         empty = np.zeros((0, 2), np.float32)
-        return pts_l, resp_l, empty, np.zeros(0, np.float32), None, geometry, timings
+        return (pts_l, resp_l, empty, np.zeros(0, np.float32), None, geometry, timings,
+                None)
     to_aligned, _ = aligned_frame(geometry, size[0])
     margin = detector.getDescriptorSize() // 2 + detector.getWindowSize() // 2 + 2
     warped, valid = warp_right(right_gray, m_r, to_aligned, size, margin)
     left_img, warped, _ = equalise_sharpness(left_gray, warped, valid)
     t2 = time.perf_counter()
-    pts_l, resp_l, desc_l, _ = detector.detect_and_describe(left_img, m_l, name="left")
+    pts_l, resp_l, desc_l, g_l, gray_l = detector.detect_and_describe(
+        left_img, m_l, name="left", keep_gray=True)
     t3 = time.perf_counter()
-    pts_a, resp_r, desc_r, _ = detector.detect_and_describe(warped, valid, name="right")
+    pts_a, resp_r, desc_r, g_r, gray_r = detector.detect_and_describe(
+        warped, valid, name="right", keep_gray=True)
     t4 = time.perf_counter()
     pts_r = transform_points(pts_a, np.linalg.inv(to_aligned))
     for round_ in range(PASSES):
-        net, mode = search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config,
-                           record_energy)
+        net, mode, shift = search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size,
+                                  config, record_energy)
         if round_ + 1 < PASSES or REFITS:
             refit = refit_fundamental(geometry, pts_l[net.query_idx], pts_r[net.train_idx])
             if refit is geometry:
@@ -296,13 +329,19 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     timings.update(align=t2 - t1, detect_left=t3 - t2, detect_right=t4 - t3,
                    match=time.perf_counter() - t4)
     geometry = dataclasses.replace(geometry, search=mode)
-    return pts_l, resp_l, pts_r, resp_r, net, geometry, timings
+    frame = SearchFrame(mode=mode, to_aligned=to_aligned, shift=shift, right_points=pts_a,
+                        grays=(gray_l, gray_r), gradients=(g_l, g_r),
+                        descriptors=(desc_l, desc_r))
+    return pts_l, resp_l, pts_r, resp_r, net, geometry, timings, frame
 
 
 def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, record_energy):
-    """``(network result, mode)``: the network on the left points and the aligned right
-    points ``pts_a``, in the frame of :func:`search_frame`, over the range of
-    :func:`network_range` (or of the inliers)."""
+    """``(network result, mode, shift)``: the network on the left points and the aligned
+    right points ``pts_a``, in the frame of :func:`search_frame`, over the range of
+    :func:`network_range` (or of the inliers). In ``'aligned'`` mode the right points are
+    moved by a whole number of pixels, ``shift`` (the range is moved by what rounding
+    left), so that the images can be moved with them (:class:`SearchFrame`); ``shift``
+    is None in the other modes."""
     H1, H2, (lo, hi), mode = search_frame(geometry, to_aligned, size)
     if H1 is None:  # the epipolar band of F, in the aligned frame shifted by H2
         F = np.linalg.inv(H2).T @ np.linalg.inv(to_aligned).T @ geometry.fundamental
@@ -314,16 +353,47 @@ def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, rec
     check_coordinate_range(q_l, "left")
     check_coordinate_range(q_r, "right")
     lo, hi, shift = network_range(config, q_l, q_r, desc_l, desc_r, size[0], fundamental, hi)
-    q_r = transform_points(q_r, shift_x(shift))
-    if fundamental is not None:
-        fundamental = shift_x(-shift).T @ fundamental
+    whole = None
+    if mode == "aligned":  # H1 = I, H2 = a shift in x
+        total = float(H2[0, 2]) + shift
+        whole = int(np.floor(total + 0.5))
+        lo, hi = lo + (total - whole), hi + (total - whole)  # d = xl - xa - whole
+        q_r = transform_points(pts_a, shift_x(whole))
+    else:
+        q_r = transform_points(q_r, shift_x(shift))
+        if fundamental is not None:
+            fundamental = shift_x(-shift).T @ fundamental
     cfg = config
     if config.max_disparity is None:
         cfg = dataclasses.replace(config, min_disparity=lo, max_disparity=hi)
     net = match_pair(PairInfo(q_l, q_r, size, size), desc_l, desc_r, cfg,
                      fundamental=fundamental, record_energy=record_energy,
                      descriptors_checked=True)
-    return net, mode
+    return net, mode, whole
+
+
+def pad_columns(image: np.ndarray, before: int, after: int) -> np.ndarray:
+    """``image`` with ``before`` columns of zeros added on the left and ``after`` on the
+    right (float32, C-contiguous)."""
+    return np.ascontiguousarray(cv2.copyMakeBorder(
+        np.asarray(image, np.float32), 0, 0, int(before), int(after), cv2.BORDER_CONSTANT,
+        value=0.0))
+
+
+def shared_frame(frame: SearchFrame, pts_l, pts_a):
+    """``(left points, right points, grays, gradients, (a, b))`` of an ``'aligned'`` frame
+    in one canvas where the network's disparities are ``x_l' - x_r'``: left points moved
+    by ``a`` and aligned right points by ``b`` pixels in x (``b - a`` is the frame's
+    ``shift``; one of them is 0), the images padded to match (both ``|shift|`` columns
+    wider), so that the steps that read images at the points (the guided pass, the
+    refinement) see the pair as a rectified one of one size."""
+    s = int(frame.shift)
+    a, b = max(0, -s), max(0, s)
+    grays = (pad_columns(frame.grays[0], a, b), pad_columns(frame.grays[1], b, a))
+    grads = (pad_columns(frame.gradients[0], a, b), pad_columns(frame.gradients[1], b, a))
+    left = (np.asarray(pts_l, np.float32) + np.float32([a, 0])).astype(np.float32)
+    right = (np.asarray(pts_a, np.float32) + np.float32([b, 0])).astype(np.float32)
+    return left, right, grays, grads, (a, b)
 
 
 def empty_network_result(config) -> NetworkResult:
