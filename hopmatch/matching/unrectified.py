@@ -114,19 +114,58 @@ def aligned_frame(geometry: EpipolarGeometry, width: float):
 
 
 def warp_right(right_gray, mask_right, to_aligned, size, margin: int):
-    """``(warped, valid)``: the right image in the left frame (:data:`INTERPOLATION`,
-    replicated borders) and where it holds right pixels (and ``mask_right``) at least
-    ``margin`` pixels inside (bool), so that no point is detected on the warp's edge."""
+    """``(warped, valid)``: the right image in the left frame (:data:`INTERPOLATION`) and
+    where it holds right pixels (and ``mask_right``) at least ``margin`` pixels inside
+    (bool), so that no point is detected on the warp's edge.
+
+    Outside the right image (and ``mask_right``) the warped image holds the median of the
+    grey levels inside: the detector scales each image by the spread of its grey levels
+    (:func:`~hopmatch.feature.gradient.normalised_intensity`), and replicated border
+    pixels (the black corners of a rotated photo...) would set the right image's scale
+    instead of what it shows, and the similarity would then take the two images for
+    unrelated (eqs. 7-9). The :func:`black_padding` of the right image counts as outside.
+    """
     w, h = int(size[0]), int(size[1])
     warped = cv2.warpAffine(right_gray, to_aligned[:2], (w, h), flags=INTERPOLATION,
                             borderMode=cv2.BORDER_REPLICATE)
-    valid = np.full(right_gray.shape, 255, np.uint8)
+    inside = np.full(right_gray.shape, 255, np.uint8)
     if mask_right is not None:
-        valid[~mask_right] = 0
-    valid = cv2.warpAffine(valid, to_aligned[:2], (w, h), flags=cv2.INTER_NEAREST,
-                           borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-    valid = cv2.erode(valid, np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)) > 0
+        inside[~mask_right] = 0
+    inside[black_padding(right_gray)] = 0
+    inside = cv2.warpAffine(inside, to_aligned[:2], (w, h), flags=cv2.INTER_NEAREST,
+                            borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    seen = inside > 0
+    if seen.any() and not seen.all():
+        warped[~seen] = np.median(warped[seen])
+    valid = cv2.erode(inside, np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)) > 0
     return warped, valid
+
+
+def black_padding(gray: np.ndarray) -> np.ndarray:
+    """Where ``gray`` is black padding (bool): the pixels of exactly 0 connected (4-way)
+    to a corner of the image, when they number at least the image's longer side, as
+    ``cv2.warpAffine``, ``cv2.remap`` after ``cv2.stereoRectify`` or a rotated photo
+    leave them. Such pixels show nothing, and would set the image's grey scale."""
+    h, w = gray.shape
+    flood = np.zeros((h + 2, w + 2), np.uint8)
+    for x, y in ((0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)):
+        if gray[y, x] == 0 and not flood[y + 1, x + 1]:
+            cv2.floodFill(np.ascontiguousarray(gray), flood, (x, y), 0, 0, 0,
+                          4 | cv2.FLOODFILL_MASK_ONLY | cv2.FLOODFILL_FIXED_RANGE
+                          | (255 << 8))
+    pad = flood[1:-1, 1:-1] > 0
+    return pad if int(pad.sum()) >= max(h, w) else np.zeros((h, w), bool)
+
+
+def fill_padding(gray: np.ndarray) -> np.ndarray:
+    """``gray`` with its :func:`black_padding` set to the median of the other pixels (a
+    copy; ``gray`` itself when it has none)."""
+    pad = black_padding(gray)
+    if not pad.any() or pad.all():
+        return gray
+    out = gray.copy()
+    out[pad] = np.median(gray[~pad])
+    return out
 
 
 def sharpness(image: np.ndarray, where: np.ndarray) -> float:
@@ -302,11 +341,13 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     timings = {"geometry": t1 - t0}
     if geometry.fundamental is None:
         pts_l, resp_l, _, _ = detector.detect_and_describe(left_gray, m_l, name="left")
-        timings["detect_left"] = time.perf_counter() - t1
+        timings.update(align=0.0, detect_left=time.perf_counter() - t1, detect_right=0.0,
+                       match=0.0)
         empty = np.zeros((0, 2), np.float32)
         return (pts_l, resp_l, empty, np.zeros(0, np.float32), None, geometry, timings,
                 None)
     to_aligned, _ = aligned_frame(geometry, size[0])
+    left_gray = fill_padding(left_gray)
     margin = detector.getDescriptorSize() // 2 + detector.getWindowSize() // 2 + 2
     warped, valid = warp_right(right_gray, m_r, to_aligned, size, margin)
     left_img, warped, _ = equalise_sharpness(left_gray, warped, valid)
