@@ -73,15 +73,17 @@ PASSES = 1
 REFITS = True
 #: How the network searches the aligned pair (:func:`search_frame`, in SEARCH_ORDER): the
 #: aligned rows when they line up the inliers nearly as well as F does (median |dy| within
-#: ROW_FACTOR x F's median epipolar error, or ROW_PIXELS: a near-degenerate F, from a scene
-#: close to one plane, fits its inliers worse than the rows do), else the rows of a
+#: ROW_FACTOR x F's median epipolar error, or ROW_PIXELS, within the network's
+#: :data:`UNRECTIFIED_VERTICAL`: a near-degenerate F, from a scene close to one plane,
+#: fits its inliers worse than the rows do; only the aligned rows get the guided pass
+#: and the refinement, which read the images along rows), else the rows of a
 #: projective rectification of both point sets
 #: (:func:`~hopmatch.matching.geometry.rectifying_homographies`), unless it moves a point
 #: of the image by more than RECTIFY_LIMIT of its diagonal (:func:`near_identity`; a
 #: near-degenerate F gives wild rectifications): then the epipolar band of F (slower: the
 #: candidate search cannot index rows).
 ROW_FACTOR = 1.5
-ROW_PIXELS = 0.25
+ROW_PIXELS = 0.5
 RECTIFY_LIMIT = 0.1
 SEARCH_ORDER = ("aligned", "rectified", "epipolar")
 
