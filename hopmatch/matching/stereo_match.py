@@ -14,13 +14,12 @@ from .._validate import as_fundamental_matrix, check_coordinate_range
 from .._warnings import warn
 from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
-from .geometry import EpipolarGeometry, GeometryWarning
+from .geometry import EpipolarGeometry, GeometryWarning, transform_points
 from .guided import GuidedMatches, guided_pass
 from .matcher import HopfieldMatcher
 from .network import NetworkResult, PairInfo, match_pair
 from .params import MatcherConfig, matcher_config
 from .refine import Refinement, refine_disparities
-from .geometry import transform_points
 from .unrectified import (
     UNRECTIFIED_VERTICAL,
     empty_network_result,

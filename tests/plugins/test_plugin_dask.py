@@ -388,6 +388,8 @@ class TestCommandLine:
         (["batch", "{csv}", "--out", "{tmp}/o", "--workers", "2", "--scheduler",
           "tcp://127.0.0.1:1"], "command line", "cannot be used with --scheduler"),
         (["batch", "{csv}", "--out", "{csv}"], "{csv}", "exists and is not a folder"),
+        (["batch", "{csv}", "--out", "{tmp}/o", "--unrectified", "--max-disparity", "12"],
+         "--max-disparity", "rectified=False"),
     ])
     def test_bad_input(self, hopmatch_main, dataset, tmp_path, capsys, args, where, problem):
         fill = {"tmp": str(tmp_path), "csv": str(dataset / "good.csv")}
