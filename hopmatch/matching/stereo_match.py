@@ -209,8 +209,10 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     -------
     StereoMatchResult
         ``result.network.config`` holds the matcher parameters used (``max_disparity``
-        resolved). On a rectified pair (no ``fundamental_matrix``, images of one size) two
-        steps beyond the paper follow the network, each with its parameter
+        resolved). On a rectified pair (no ``fundamental_matrix``, images of one size), and
+        with ``rectified=False`` when the network searched the rows of the aligned images
+        (``result.geometry.search == "aligned"``), two steps beyond the paper follow the
+        network, each with its parameter
         (docs/method.md): ``guided`` appends matches for left points the network left
         unmatched (``result.passes == 1``, right points appended to ``points_right``),
         and ``refine`` moves every match's right point to its sub-pixel position on the

@@ -15,8 +15,14 @@ rectified=False)``.
    the warp smooths the right image, and the similarity of eqs. 7-9 compares windows.
 4. The network searches rows (of the aligned pair, or of a rectification close to the
    identity) or else the epipolar band of F (:func:`search_frame`), over the disparity
-   range a coarse pass finds there (:func:`network_range`). F is refitted on the final
-   matches (the F reported).
+   range a coarse pass finds there (:func:`network_range`). F is refitted on the
+   network's matches (the F reported).
+5. On the aligned rows, the guided second pass and the sub-pixel refinement of a rectified
+   pair follow (``hopmatch.matching.stereo_match.unrectified_beyond_network``), on the
+   images of :func:`shared_frame`.
+
+What the images show nothing of (outside the right image, its mask, :func:`black_padding`)
+holds the median grey level of the rest (:func:`warp_right`, :func:`fill_padding`).
 
 Points are reported in the coordinates of the images given. The choices were measured on
 perturbed shared scenes and the chessboard photos (``benchmarks/unrectified.py``;
