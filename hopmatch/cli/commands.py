@@ -18,6 +18,7 @@ from ..evaluate import correct_matches, score_matches
 from ..feature.detector import DericheMoravecDetector
 from ..matching.matcher import HopfieldMatcher
 from ..matching.stereo_match import match_stereo, stereo_pipeline
+from ..matching.unrectified import UNRECTIFIED_VERTICAL
 from .group import cli
 from .options import given_parameters, param_labels, parameter_options
 from .outputs import Outputs, image_info, ms, read_image, run_json
@@ -111,6 +112,53 @@ def _labels(ctx, labels: dict) -> dict:
 def _open(outputs, labels) -> None:
     """``outputs.open()``, an OSError about the folder (a name too long...) as bad input."""
     guard(None, {**labels, "": outputs.label}, outputs.open)
+
+
+def check_unrectified_options(given: dict, fundamental_file) -> None:
+    """Refuse what ``--unrectified`` cannot be combined with (before any file is read):
+    a known F, or a disparity range (the range of an unrectified pair is found in the
+    frame its right image is aligned to)."""
+    if fundamental_file is not None:
+        raise click.UsageError("--unrectified estimates the fundamental matrix from the "
+                               "pair; to match along a known one give only "
+                               "--fundamental-matrix FILE")
+    for name in ("min_disparity", "max_disparity"):
+        if given.get(name) is not None:
+            raise click.UsageError(
+                f"--unrectified finds the disparity range with the geometry; leave "
+                f"--{name.replace('_', '-')} out (got {given[name]:g})")
+
+
+def fundamental_text(result) -> str:
+    """``fundamental_matrix.txt``: the estimated F as ``np.savetxt`` writes it (readable
+    by ``--fundamental-matrix``), ``x_right^T F x_left = 0``."""
+    import io
+
+    buf = io.StringIO()
+    np.savetxt(buf, result.fundamental_matrix, fmt="%.12g",
+               header="fundamental matrix estimated by hopmatch match --unrectified: "
+                      "[xr, yr, 1] F [xl, yl, 1]^T = 0")
+    return buf.getvalue()
+
+
+def geometry_json(result) -> dict:
+    """run.json's ``geometry`` of an ``--unrectified`` run: F (or None) and how it was found."""
+    g = result.geometry
+    median = float(g.median_error)
+    return {"fundamental_matrix": (None if g.fundamental is None
+                                   else np.asarray(g.fundamental).tolist()),
+            "correspondences": int(g.n_correspondences), "inliers": int(g.n_inliers),
+            "median_epipolar_error_px": median if np.isfinite(median) else None,
+            "source": g.source, "search": g.search, "reason": g.reason}
+
+
+def geometry_line(result) -> str:
+    """The line ``hopmatch match --unrectified`` says about the geometry it found."""
+    g = result.geometry
+    if g.fundamental is None:
+        return f"geometry: none found ({g.reason})"
+    return (f"geometry: F from {g.n_inliers} of {g.n_correspondences} correspondences "
+            f"(median epipolar error {g.median_error:.2f} px), searched {g.search}")
 
 
 def read_fundamental_matrix(path: str) -> np.ndarray:
@@ -288,6 +336,13 @@ def demo(ctx, out):
                    "a text file of 9 numbers (np.savetxt), a .npy file, or a .yml/.xml/.json "
                    "cv2.FileStorage file with a node F. LEFT and RIGHT may then differ in "
                    "size.")
+@click.option("--unrectified", is_flag=True,
+              help="The pair is not rectified and its geometry is unknown (two photos, an "
+                   "uncalibrated rig): estimate the fundamental matrix and the disparity "
+                   "range from the pair (match_stereo(..., rectified=False)) and write F to "
+                   "fundamental_matrix.txt. LEFT and RIGHT may then differ in size. Cannot "
+                   "be combined with --fundamental-matrix, --min-disparity or "
+                   "--max-disparity; --vertical-threshold defaults to 0.75 px.")
 @click.option("--format", "fmt", type=click.Choice(["csv", "json"]), default="csv",
               show_default=True, help="matches.csv or matches.json.")
 @click.option("--no-draw", is_flag=True, help="Do not write matches.png and disparity.png.")
@@ -298,10 +353,10 @@ def demo(ctx, out):
                    "(points over the gradient magnitude) and figure7.png (numbered matches).")
 @parameter_options(DericheMoravecDetector, HopfieldMatcher)
 @click.pass_context
-def match(ctx, left, right, out, fundamental_file, fmt, no_draw, plot_energy, figures,
-          **params):
+def match(ctx, left, right, out, fundamental_file, unrectified, fmt, no_draw, plot_energy,
+          figures, **params):
     """Match a rectified stereo pair LEFT RIGHT (image files of the same height), or an
-    unrectified one with --fundamental-matrix.
+    unrectified one with --fundamental-matrix (F known) or --unrectified (F estimated).
 
     Writes matches.csv (left_x,left_y,right_x,right_y,disparity,distance; or matches.json),
     matches.png and disparity.png (unless --no-draw), energy.png (--plot-energy),
@@ -313,7 +368,13 @@ def match(ctx, left, right, out, fundamental_file, fmt, no_draw, plot_energy, fi
     labels = _labels(ctx, {"": f"{left}, {right}", "left": left, "right": right,
                            **param_labels(DericheMoravecDetector, HopfieldMatcher)})
     # configuration first: a bad combination fails before any file is touched
-    detector, matcher = guard(None, labels, lambda: stereo_pipeline(given, "hopmatch match"))
+    if unrectified:
+        check_unrectified_options(given, fundamental_file)
+    pipeline = dict(given)
+    if unrectified:
+        pipeline.setdefault("vertical_threshold", UNRECTIFIED_VERTICAL)
+    detector, matcher = guard(None, labels,
+                              lambda: stereo_pipeline(pipeline, "hopmatch match"))
     fundamental = None
     if fundamental_file is not None:
         labels["fundamental_matrix"] = fundamental_file
@@ -327,10 +388,10 @@ def match(ctx, left, right, out, fundamental_file, fmt, no_draw, plot_energy, fi
     pixels = detector.getMaxPixels()  # images over it are refused from their header
     img_l, img_r = guard(None, labels, lambda: (read_image(left, pixels),
                                                 read_image(right, pixels)))
-    if fundamental is None and img_l.shape[0] != img_r.shape[0]:
+    if fundamental is None and not unrectified and img_l.shape[0] != img_r.shape[0]:
         raise CLIError(right, f"height {img_r.shape[0]} differs from the height of {left} "
                               f"({img_l.shape[0]}); LEFT and RIGHT must be a rectified pair "
-                              "(or give --fundamental-matrix FILE)")
+                              "(or give --fundamental-matrix FILE, or --unrectified)")
     t_read = time.perf_counter() - t_start
     outputs = Outputs(out)
     _open(outputs, labels)
@@ -341,10 +402,13 @@ def match(ctx, left, right, out, fundamental_file, fmt, no_draw, plot_energy, fi
         status("detecting and matching")
         t0 = time.perf_counter()
         result = match_stereo(img_l, img_r, record_energy=plot_energy, detector=detector,
-                              matcher=matcher, fundamental_matrix=fundamental)
+                              matcher=matcher, fundamental_matrix=fundamental,
+                              rectified=not unrectified)
         t_match = time.perf_counter() - t0
         t1 = time.perf_counter()
         outputs.add_text(f"matches.{fmt}", _match_table(result, fmt))
+        if unrectified and result.fundamental_matrix is not None:
+            outputs.add_text("fundamental_matrix.txt", fundamental_text(result))
         if not no_draw:
             _draw_match_images(outputs, img_l, img_r, result)
         if plot_energy:
@@ -363,8 +427,10 @@ def match(ctx, left, right, out, fundamental_file, fmt, no_draw, plot_energy, fi
                         "max_disparity_used": used, "record_energy": plot_energy,
                         "fundamental_matrix": (None if fundamental is None
                                                else fundamental.tolist()),
+                        "unrectified": unrectified,
                         "format": fmt, "draw": not no_draw, "figures": figures},
             counts=counts,
+            **({"geometry": geometry_json(result)} if unrectified else {}),
             energy=float(result.network.energy),
             timings_ms={"read": ms(t_read), "warmup": ms(t_warm),
                         **{k: ms(v) for k, v in result.timings.items()},
@@ -378,6 +444,8 @@ def match(ctx, left, right, out, fundamental_file, fmt, no_draw, plot_energy, fi
         say(ctx, f"matches: {counts['matches']}")
         if counts["matches"]:
             say(ctx, f"median disparity: {float(np.median(result.disparities)):g} px")
+        if unrectified:
+            say(ctx, geometry_line(result))
         _say_times(ctx, result, t_match, t_warm)
         say(ctx, f"output: {outputs.path} ({', '.join(outputs.names)})")
 

@@ -15,13 +15,18 @@ from .._warnings import warn
 from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
 from .confidence import confidence_distances, fields_of_distances
-from .geometry import EpipolarGeometry, GeometryWarning
+from .geometry import EpipolarGeometry, GeometryWarning, transform_points
 from .guided import GuidedMatches, guided_pass, guided_rounds
 from .matcher import HopfieldMatcher, dmatches
 from .network import NetworkResult, PairInfo, match_pair
 from .params import MatcherConfig, matcher_config
 from .refine import Refinement, refine_disparities
-from .unrectified import UNRECTIFIED_VERTICAL, empty_network_result, match_unrectified
+from .unrectified import (
+    UNRECTIFIED_VERTICAL,
+    empty_network_result,
+    match_unrectified,
+    shared_frame,
+)
 from .vertical import RowOffset, fit_row_offset, median_offset
 
 #: ``StereoMatchResult.passes`` of a match found by the network.
@@ -215,8 +220,10 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     -------
     StereoMatchResult
         ``result.network.config`` holds the matcher parameters used (``max_disparity``
-        resolved). On a rectified pair (no ``fundamental_matrix``, images of one size) two
-        steps beyond the paper follow the network, each with its parameter
+        resolved). On a rectified pair (no ``fundamental_matrix``, images of one size), and
+        with ``rectified=False`` when the network searched the rows of the aligned images
+        (``result.geometry.search == "aligned"``), two steps beyond the paper follow the
+        network, each with its parameter
         (docs/method.md): ``guided`` appends matches for left points the network left
         unmatched (``result.passes == 1``, right points appended to ``points_right``),
         and ``refine`` moves every match's right point to its sub-pixel position on the
@@ -422,15 +429,39 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
             f"match_stereo got rectified=False and max_disparity={config.max_disparity:g}: "
             "the disparity range of an unrectified pair is found with its geometry (in the "
             "frame the right image is aligned to); leave max_disparity=None")
-    pts_l, resp_l, pts_r, resp_r, net, geometry, timings = match_unrectified(
+    pts_l, resp_l, pts_r, resp_r, net, geometry, timings, frame = match_unrectified(
         left, right, detector, config, mask_left=mask_left, mask_right=mask_right,
         record_energy=record_energy)
     if net is None:
         warn(f"match_stereo(rectified=False) found no epipolar geometry, so no matches: "
              f"{geometry.reason}", GeometryWarning)
         net = empty_network_result(config)
-    return StereoMatchResult(
+    result = StereoMatchResult(
         points_left=pts_l, points_right=pts_r, responses_left=resp_l, responses_right=resp_r,
         query_idx=net.query_idx, train_idx=net.train_idx, distances=net.distances,
         network=net, keypoint_size=float(detector.getWindowSize()), timings=timings,
+        match_timings={"network": timings.get("match", 0.0), "guided": 0.0, "refine": 0.0},
         fundamental_matrix=geometry.fundamental, geometry=geometry)
+    if frame is None or frame.mode != "aligned" or not len(net.query_idx):
+        return result
+    return unrectified_beyond_network(result, frame)
+
+
+def unrectified_beyond_network(result: StereoMatchResult, frame) -> StereoMatchResult:
+    """:func:`beyond_network` (the guided pass and the refinement) on an unrectified pair
+    searched along the rows of its aligned images: run in the canvas of
+    :func:`~hopmatch.matching.unrectified.shared_frame`, where the pair is a rectified
+    one of one size, and every new or moved right point mapped back into the right
+    image (the inverse of the alignment)."""
+    pts_l, pts_r = result.points_left, result.points_right
+    fl, fr, grays, grads, (_, b) = shared_frame(frame, pts_l, frame.right_points)
+    out = beyond_network(dataclasses.replace(result, points_left=fl, points_right=fr),
+                         frame.descriptors, grads, grays, result.network.config)
+    if out.points_right is fr:
+        return dataclasses.replace(out, points_left=pts_l, points_right=pts_r)
+    n = len(fr)
+    back = np.asarray(out.points_right, np.float64) - [b, 0.0]
+    mapped = transform_points(back, np.linalg.inv(frame.to_aligned)).astype(np.float32)
+    same = np.all(out.points_right[:n] == fr, axis=1)
+    mapped[:n][same] = pts_r[same]
+    return dataclasses.replace(out, points_left=pts_l, points_right=mapped)

@@ -15,8 +15,14 @@ rectified=False)``.
    the warp smooths the right image, and the similarity of eqs. 7-9 compares windows.
 4. The network searches rows (of the aligned pair, or of a rectification close to the
    identity) or else the epipolar band of F (:func:`search_frame`), over the disparity
-   range a coarse pass finds there (:func:`network_range`). F is refitted on the final
-   matches (the F reported).
+   range a coarse pass finds there (:func:`network_range`). F is refitted on the
+   network's matches (the F reported).
+5. On the aligned rows, the guided second pass and the sub-pixel refinement of a rectified
+   pair follow (``hopmatch.matching.stereo_match.unrectified_beyond_network``), on the
+   images of :func:`shared_frame`.
+
+What the images show nothing of (outside the right image, its mask, :func:`black_padding`)
+holds the median grey level of the rest (:func:`warp_right`, :func:`fill_padding`).
 
 Points are reported in the coordinates of the images given. The choices were measured on
 perturbed shared scenes and the chessboard photos (``benchmarks/unrectified.py``;
@@ -73,15 +79,17 @@ PASSES = 1
 REFITS = True
 #: How the network searches the aligned pair (:func:`search_frame`, in SEARCH_ORDER): the
 #: aligned rows when they line up the inliers nearly as well as F does (median |dy| within
-#: ROW_FACTOR x F's median epipolar error, or ROW_PIXELS: a near-degenerate F, from a scene
-#: close to one plane, fits its inliers worse than the rows do), else the rows of a
+#: ROW_FACTOR x F's median epipolar error, or ROW_PIXELS, within the network's
+#: :data:`UNRECTIFIED_VERTICAL`: a near-degenerate F, from a scene close to one plane,
+#: fits its inliers worse than the rows do; only the aligned rows get the guided pass
+#: and the refinement, which read the images along rows), else the rows of a
 #: projective rectification of both point sets
 #: (:func:`~hopmatch.matching.geometry.rectifying_homographies`), unless it moves a point
 #: of the image by more than RECTIFY_LIMIT of its diagonal (:func:`near_identity`; a
 #: near-degenerate F gives wild rectifications): then the epipolar band of F (slower: the
 #: candidate search cannot index rows).
 ROW_FACTOR = 1.5
-ROW_PIXELS = 0.25
+ROW_PIXELS = 0.5
 RECTIFY_LIMIT = 0.1
 SEARCH_ORDER = ("aligned", "rectified", "epipolar")
 
@@ -114,19 +122,58 @@ def aligned_frame(geometry: EpipolarGeometry, width: float):
 
 
 def warp_right(right_gray, mask_right, to_aligned, size, margin: int):
-    """``(warped, valid)``: the right image in the left frame (:data:`INTERPOLATION`,
-    replicated borders) and where it holds right pixels (and ``mask_right``) at least
-    ``margin`` pixels inside (bool), so that no point is detected on the warp's edge."""
+    """``(warped, valid)``: the right image in the left frame (:data:`INTERPOLATION`) and
+    where it holds right pixels (and ``mask_right``) at least ``margin`` pixels inside
+    (bool), so that no point is detected on the warp's edge.
+
+    Outside the right image (and ``mask_right``) the warped image holds the median of the
+    grey levels inside: the detector scales each image by the spread of its grey levels
+    (:func:`~hopmatch.feature.gradient.normalised_intensity`), and replicated border
+    pixels (the black corners of a rotated photo...) would set the right image's scale
+    instead of what it shows, and the similarity would then take the two images for
+    unrelated (eqs. 7-9). The :func:`black_padding` of the right image counts as outside.
+    """
     w, h = int(size[0]), int(size[1])
     warped = cv2.warpAffine(right_gray, to_aligned[:2], (w, h), flags=INTERPOLATION,
                             borderMode=cv2.BORDER_REPLICATE)
-    valid = np.full(right_gray.shape, 255, np.uint8)
+    inside = np.full(right_gray.shape, 255, np.uint8)
     if mask_right is not None:
-        valid[~mask_right] = 0
-    valid = cv2.warpAffine(valid, to_aligned[:2], (w, h), flags=cv2.INTER_NEAREST,
-                           borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-    valid = cv2.erode(valid, np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)) > 0
+        inside[~mask_right] = 0
+    inside[black_padding(right_gray)] = 0
+    inside = cv2.warpAffine(inside, to_aligned[:2], (w, h), flags=cv2.INTER_NEAREST,
+                            borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    seen = inside > 0
+    if seen.any() and not seen.all():
+        warped[~seen] = np.median(warped[seen])
+    valid = cv2.erode(inside, np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)) > 0
     return warped, valid
+
+
+def black_padding(gray: np.ndarray) -> np.ndarray:
+    """Where ``gray`` is black padding (bool): the pixels of exactly 0 connected (4-way)
+    to a corner of the image, when they number at least the image's longer side, as
+    ``cv2.warpAffine``, ``cv2.remap`` after ``cv2.stereoRectify`` or a rotated photo
+    leave them. Such pixels show nothing, and would set the image's grey scale."""
+    h, w = gray.shape
+    flood = np.zeros((h + 2, w + 2), np.uint8)
+    for x, y in ((0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)):
+        if gray[y, x] == 0 and not flood[y + 1, x + 1]:
+            cv2.floodFill(np.ascontiguousarray(gray), flood, (x, y), 0, 0, 0,
+                          4 | cv2.FLOODFILL_MASK_ONLY | cv2.FLOODFILL_FIXED_RANGE
+                          | (255 << 8))
+    pad = flood[1:-1, 1:-1] > 0
+    return pad if int(pad.sum()) >= max(h, w) else np.zeros((h, w), bool)
+
+
+def fill_padding(gray: np.ndarray) -> np.ndarray:
+    """``gray`` with its :func:`black_padding` set to the median of the other pixels (a
+    copy; ``gray`` itself when it has none)."""
+    pad = black_padding(gray)
+    if not pad.any() or pad.all():
+        return gray
+    out = gray.copy()
+    out[pad] = np.median(gray[~pad])
+    return out
 
 
 def sharpness(image: np.ndarray, where: np.ndarray) -> float:
@@ -250,15 +297,45 @@ def network_range(config, q_l, q_r, desc_l, desc_r, width, fundamental, inlier_h
     return RANGE_START, hi + pad - shift, shift
 
 
+@dataclasses.dataclass(frozen=True)
+class SearchFrame:
+    """Where the network of :func:`match_unrectified` searched, for the steps after it.
+
+    Attributes
+    ----------
+    mode : str
+        ``'aligned'``, ``'rectified'`` or ``'epipolar'`` (:func:`search_frame`).
+    to_aligned : (3, 3) float64 ndarray
+        Right image -> left image's frame (:func:`aligned_frame`).
+    shift : int or None
+        ``'aligned'`` only: the whole-pixel x shift ``s`` of the aligned right points in the
+        network's frame (``q_r = x_a + s``, ``q_l = x_l``), None otherwise.
+    right_points : (N, 2) float32 ndarray
+        The right points in the left image's frame, as detected there.
+    grays, gradients, descriptors : tuples of (left, aligned right)
+        The images the points were detected on (the right one warped into the left frame,
+        both after :func:`equalise_sharpness`) and the points' windows.
+    """
+
+    mode: str
+    to_aligned: np.ndarray
+    shift: int | None
+    right_points: np.ndarray
+    grays: tuple
+    gradients: tuple
+    descriptors: tuple
+
+
 def match_unrectified(left, right, detector, config, *, mask_left=None, mask_right=None,
                       record_energy=False):
     """The pipeline of this module's docstring.
 
-    Returns ``(pts_l, resp_l, pts_r, resp_r, network, geometry, timings)``: points in the
-    given images' coordinates, the :class:`~hopmatch.matching.network.NetworkResult` (or
-    None when no geometry was accepted: ``geometry.reason`` says why), the
-    :class:`~hopmatch.matching.geometry.EpipolarGeometry` used and the seconds spent in
-    ``geometry``, ``align``, ``detect_left``, ``detect_right`` and ``match``.
+    Returns ``(pts_l, resp_l, pts_r, resp_r, network, geometry, timings, frame)``: points
+    in the given images' coordinates, the :class:`~hopmatch.matching.network.NetworkResult`
+    (or None when no geometry was accepted: ``geometry.reason`` says why), the
+    :class:`~hopmatch.matching.geometry.EpipolarGeometry` used, the seconds spent in
+    ``geometry``, ``align``, ``detect_left``, ``detect_right`` and ``match``, and the
+    :class:`SearchFrame` of the network (None without geometry).
     """
     t0 = time.perf_counter()
     limit = detector.getMaxPixels()
@@ -272,22 +349,27 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     timings = {"geometry": t1 - t0}
     if geometry.fundamental is None:
         pts_l, resp_l, _, _ = detector.detect_and_describe(left_gray, m_l, name="left")
-        timings["detect_left"] = time.perf_counter() - t1
+        timings.update(align=0.0, detect_left=time.perf_counter() - t1, detect_right=0.0,
+                       match=0.0)
         empty = np.zeros((0, 2), np.float32)
-        return pts_l, resp_l, empty, np.zeros(0, np.float32), None, geometry, timings
+        return (pts_l, resp_l, empty, np.zeros(0, np.float32), None, geometry, timings,
+                None)
     to_aligned, _ = aligned_frame(geometry, size[0])
+    left_gray = fill_padding(left_gray)
     margin = detector.getDescriptorSize() // 2 + detector.getWindowSize() // 2 + 2
     warped, valid = warp_right(right_gray, m_r, to_aligned, size, margin)
     left_img, warped, _ = equalise_sharpness(left_gray, warped, valid)
     t2 = time.perf_counter()
-    pts_l, resp_l, desc_l, _ = detector.detect_and_describe(left_img, m_l, name="left")
+    pts_l, resp_l, desc_l, g_l, gray_l = detector.detect_and_describe(
+        left_img, m_l, name="left", keep_gray=True)
     t3 = time.perf_counter()
-    pts_a, resp_r, desc_r, _ = detector.detect_and_describe(warped, valid, name="right")
+    pts_a, resp_r, desc_r, g_r, gray_r = detector.detect_and_describe(
+        warped, valid, name="right", keep_gray=True)
     t4 = time.perf_counter()
     pts_r = transform_points(pts_a, np.linalg.inv(to_aligned))
     for round_ in range(PASSES):
-        net, mode = search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config,
-                           record_energy)
+        net, mode, shift = search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size,
+                                  config, record_energy)
         if round_ + 1 < PASSES or REFITS:
             refit = refit_fundamental(geometry, pts_l[net.query_idx], pts_r[net.train_idx])
             if refit is geometry:
@@ -296,13 +378,19 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     timings.update(align=t2 - t1, detect_left=t3 - t2, detect_right=t4 - t3,
                    match=time.perf_counter() - t4)
     geometry = dataclasses.replace(geometry, search=mode)
-    return pts_l, resp_l, pts_r, resp_r, net, geometry, timings
+    frame = SearchFrame(mode=mode, to_aligned=to_aligned, shift=shift, right_points=pts_a,
+                        grays=(gray_l, gray_r), gradients=(g_l, g_r),
+                        descriptors=(desc_l, desc_r))
+    return pts_l, resp_l, pts_r, resp_r, net, geometry, timings, frame
 
 
 def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, record_energy):
-    """``(network result, mode)``: the network on the left points and the aligned right
-    points ``pts_a``, in the frame of :func:`search_frame`, over the range of
-    :func:`network_range` (or of the inliers)."""
+    """``(network result, mode, shift)``: the network on the left points and the aligned
+    right points ``pts_a``, in the frame of :func:`search_frame`, over the range of
+    :func:`network_range` (or of the inliers). In ``'aligned'`` mode the right points are
+    moved by a whole number of pixels, ``shift`` (the range is moved by what rounding
+    left), so that the images can be moved with them (:class:`SearchFrame`); ``shift``
+    is None in the other modes."""
     H1, H2, (lo, hi), mode = search_frame(geometry, to_aligned, size)
     if H1 is None:  # the epipolar band of F, in the aligned frame shifted by H2
         F = np.linalg.inv(H2).T @ np.linalg.inv(to_aligned).T @ geometry.fundamental
@@ -314,16 +402,47 @@ def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, rec
     check_coordinate_range(q_l, "left")
     check_coordinate_range(q_r, "right")
     lo, hi, shift = network_range(config, q_l, q_r, desc_l, desc_r, size[0], fundamental, hi)
-    q_r = transform_points(q_r, shift_x(shift))
-    if fundamental is not None:
-        fundamental = shift_x(-shift).T @ fundamental
+    whole = None
+    if mode == "aligned":  # H1 = I, H2 = a shift in x
+        total = float(H2[0, 2]) + shift
+        whole = int(np.floor(total + 0.5))
+        lo, hi = lo + (total - whole), hi + (total - whole)  # d = xl - xa - whole
+        q_r = transform_points(pts_a, shift_x(whole))
+    else:
+        q_r = transform_points(q_r, shift_x(shift))
+        if fundamental is not None:
+            fundamental = shift_x(-shift).T @ fundamental
     cfg = config
     if config.max_disparity is None:
         cfg = dataclasses.replace(config, min_disparity=lo, max_disparity=hi)
     net = match_pair(PairInfo(q_l, q_r, size, size), desc_l, desc_r, cfg,
                      fundamental=fundamental, record_energy=record_energy,
                      descriptors_checked=True)
-    return net, mode
+    return net, mode, whole
+
+
+def pad_columns(image: np.ndarray, before: int, after: int) -> np.ndarray:
+    """``image`` with ``before`` columns of zeros added on the left and ``after`` on the
+    right (float32, C-contiguous)."""
+    return np.ascontiguousarray(cv2.copyMakeBorder(
+        np.asarray(image, np.float32), 0, 0, int(before), int(after), cv2.BORDER_CONSTANT,
+        value=0.0))
+
+
+def shared_frame(frame: SearchFrame, pts_l, pts_a):
+    """``(left points, right points, grays, gradients, (a, b))`` of an ``'aligned'`` frame
+    in one canvas where the network's disparities are ``x_l' - x_r'``: left points moved
+    by ``a`` and aligned right points by ``b`` pixels in x (``b - a`` is the frame's
+    ``shift``; one of them is 0), the images padded to match (both ``|shift|`` columns
+    wider), so that the steps that read images at the points (the guided pass, the
+    refinement) see the pair as a rectified one of one size."""
+    s = int(frame.shift)
+    a, b = max(0, -s), max(0, s)
+    grays = (pad_columns(frame.grays[0], a, b), pad_columns(frame.grays[1], b, a))
+    grads = (pad_columns(frame.gradients[0], a, b), pad_columns(frame.gradients[1], b, a))
+    left = (np.asarray(pts_l, np.float32) + np.float32([a, 0])).astype(np.float32)
+    right = (np.asarray(pts_a, np.float32) + np.float32([b, 0])).astype(np.float32)
+    return left, right, grays, grads, (a, b)
 
 
 def empty_network_result(config) -> NetworkResult:

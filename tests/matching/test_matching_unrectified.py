@@ -62,9 +62,9 @@ def perturbed_box_pair(angle, dy, scale, seed=3):
 @pytest.mark.parametrize("angle, dy, scale", [(5.0, 30.0, 1.03), (-2.0, -8.0, 0.98)])
 def test_a_perturbed_rectified_pair_keeps_most_of_its_matches(angle, dy, scale):
     left, right, warped, gt, A = perturbed_box_pair(angle, dy, scale)
-    # the unrectified path runs the network alone (no guided pass or refinement yet), so it
-    # is compared with the network alone on the rectified pair
-    ref = hopmatch.match_stereo(left, right, max_disparity=24, guided=False, refine=False)
+    # the unrectified path runs the guided pass and the refinement on the aligned rows, so
+    # it is compared with the defaults on the rectified pair
+    ref = hopmatch.match_stereo(left, right, max_disparity=24)
     t, known = perturbed_truth(ref.matched_left, gt, np.eye(3)[:2])
     ref_correct = int((known & (np.hypot(*(ref.matched_right - t).T) <= 1)).sum())
     res = hopmatch.match_stereo(left, warped, rectified=False)
@@ -73,6 +73,40 @@ def test_a_perturbed_rectified_pair_keeps_most_of_its_matches(angle, dy, scale):
     assert correct.sum() / known.sum() >= 0.97
     assert correct.sum() >= 0.75 * ref_correct
     assert res.geometry.search == "aligned"
+    # both steps after the network ran, and their right points are in the given image
+    guided = res.passes == 1
+    assert guided.any() and res.refinement is not None and res.refinement.ok.mean() > 0.8
+    assert correct[guided].mean() >= 0.95
+    assert len(res.points_right) == res.n_detected_right + guided.sum()
+
+
+def test_black_padding_is_found_and_filled():
+    img = texture(np.random.default_rng(5), 300)[:200, :300]
+    assert not u.black_padding(img).any() and u.fill_padding(img) is img
+    A = cv2.getRotationMatrix2D((149.5, 99.5), 5.0, 0.97)
+    A[1, 2] += 12
+    rotated = cv2.warpAffine(img, A, (300, 200), flags=cv2.INTER_LINEAR)
+    pad = u.black_padding(rotated)
+    outside = cv2.warpAffine(np.full(img.shape, 255, np.uint8), A, (300, 200),
+                             flags=cv2.INTER_NEAREST) == 0
+    assert pad.sum() >= 0.9 * outside.sum() and not (pad & ~outside).any()
+    filled = u.fill_padding(rotated)
+    assert (filled[pad] == np.median(rotated[~pad])).all()
+    assert (filled[~pad] == rotated[~pad]).all()
+    # a few black pixels in a corner are content, not padding
+    few = img.copy()
+    few[:3, :3] = 0
+    assert not u.black_padding(few).any()
+
+
+def test_the_warp_outside_the_right_image_holds_its_median():
+    img = texture(np.random.default_rng(6), 200)[:150, :200]
+    to_aligned = np.array([[1.0, 0, 20], [0, 1, 10], [0, 0, 1]])
+    warped, valid = u.warp_right(img, None, to_aligned, (200, 150), 4)
+    inside = np.median(img[:140, :180])  # what the shift keeps in view
+    assert (warped[:10] == inside).all() and (warped[:, :20] == inside).all()
+    np.testing.assert_array_equal(warped[10:, 20:], img[:140, :180])
+    assert not valid[:14].any() and valid[20:140, 30:190].all()
 
 
 def test_a_perturbed_middlebury_pair(shared_data):

@@ -253,8 +253,34 @@ class TestMatchPairs:
         params = {"preset": "paper", "window_size": 7, "max_disparity": 12.0}
         assert hopmatch_dask.check_params(params) == params
 
+    def test_rectified_false_is_checked_on_the_client(self):
+        """``rectified`` is match_stereo's own argument (``hopmatch batch --unrectified``)."""
+        params = {"rectified": False, "window_size": 7}
+        assert hopmatch_dask.check_params(params) == params
+        with pytest.raises(ValueError, match="max_disparity") as info:
+            hopmatch_dask.check_params({"rectified": False, "max_disparity": 12.0})
+        assert info.value.argument == "max_disparity"
+        with pytest.raises(TypeError, match="rectified") as info:
+            hopmatch_dask.check_params({"rectified": "no"})
+        assert info.value.argument == "rectified"
 
-def test_one_matches_table_writer():
+
+def test_a_worker_matches_an_unrectified_pair():
+    """What ``hopmatch batch --unrectified`` runs on a worker: match_stereo(rectified=False)."""
+    from hopmatch_dask.tasks import match_pair
+
+    rng = np.random.default_rng(3)
+    left = cv2.GaussianBlur(rng.random((300, 400)).astype(np.float32), (0, 0), 2.0)
+    left = ((left - left.min()) / (left.max() - left.min()) * 255).astype(np.uint8)
+    right = np.roll(left, -8, axis=1)
+    right[:150] = np.roll(left, -16, axis=1)[:150]  # two depths: F is not degenerate
+    A = cv2.getRotationMatrix2D((199.5, 149.5), 3.0, 1.0)
+    right = cv2.warpAffine(right, A, (400, 300), flags=cv2.INTER_LINEAR)
+    plain = match_pair(Pair("p", left, right), {})
+    res = match_pair(Pair("p", left, right), {"rectified": False})
+    assert len(res.matched_left) > 500
+    assert len(res.matched_left) > 3 * len(plain.matched_left)
+
     """The plugin writes <name>.csv with the library's writer, as hopmatch match does."""
     from hopmatch import _tables
     from hopmatch_dask import results
@@ -388,6 +414,8 @@ class TestCommandLine:
         (["batch", "{csv}", "--out", "{tmp}/o", "--workers", "2", "--scheduler",
           "tcp://127.0.0.1:1"], "command line", "cannot be used with --scheduler"),
         (["batch", "{csv}", "--out", "{csv}"], "{csv}", "exists and is not a folder"),
+        (["batch", "{csv}", "--out", "{tmp}/o", "--unrectified", "--max-disparity", "12"],
+         "--max-disparity", "rectified=False"),
     ])
     def test_bad_input(self, hopmatch_main, dataset, tmp_path, capsys, args, where, problem):
         fill = {"tmp": str(tmp_path), "csv": str(dataset / "good.csv")}

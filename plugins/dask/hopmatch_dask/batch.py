@@ -15,8 +15,10 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from hopmatch._files import write_text_atomic
-from hopmatch.errors import InvalidArgumentError
+from hopmatch.errors import InvalidArgumentError, InvalidTypeError
 from hopmatch.matching.stereo_match import stereo_pipeline
 
 from .pairs import Pair, as_pairs
@@ -40,9 +42,22 @@ def check_params(params: dict, caller: str = "hopmatch_dask") -> dict:
 
     The parameters are shared between the detector and the matcher by the library's one rule,
     :func:`hopmatch.matching.stereo_match.stereo_pipeline`; an unknown name raises
-    :class:`~hopmatch.errors.InvalidArgumentError` naming ``caller``.
+    :class:`~hopmatch.errors.InvalidArgumentError` naming ``caller``. ``rectified``
+    (``match_stereo``'s own argument) may be given too: ``False`` for unrectified pairs,
+    whose geometry and disparity range are estimated (then without ``max_disparity``).
     """
-    stereo_pipeline(params, caller)
+    rest = {k: v for k, v in params.items() if k != "rectified"}
+    if "rectified" in params:
+        rectified = params["rectified"]
+        if not isinstance(rectified, (bool, np.bool_)):
+            raise InvalidTypeError(f"`rectified` must be True or False, got {rectified!r}",
+                                   argument="rectified")
+        if not rectified and rest.get("max_disparity") is not None:
+            raise InvalidArgumentError(
+                f"{caller} got rectified=False and max_disparity={rest['max_disparity']:g}: "
+                "the disparity range of an unrectified pair is found with its geometry; "
+                "leave max_disparity=None", argument="max_disparity")
+    stereo_pipeline(rest, caller)
     return dict(params)
 
 

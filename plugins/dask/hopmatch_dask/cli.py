@@ -77,9 +77,13 @@ def _stderr_is_terminal() -> bool:
                    "start a local cluster on this machine).")
 @click.option("--workers", type=click.IntRange(min=1), metavar="N",
               help="Worker processes of the local cluster [default: one per core].")
+@click.option("--unrectified", is_flag=True,
+              help="The pairs are not rectified and their geometry is unknown: estimate "
+                   "each pair's fundamental matrix and disparity range from the pair, as "
+                   "'hopmatch match --unrectified' (match_stereo(..., rectified=False)).")
 @parameter_options(hopmatch.DericheMoravecDetector, hopmatch.HopfieldMatcher)
 @click.pass_context
-def batch(ctx, pairs_csv, out, scheduler, workers, **params):
+def batch(ctx, pairs_csv, out, scheduler, workers, unrectified, **params):
     """Match every pair listed in PAIRS.csv on a Dask cluster.
 
     PAIRS.csv has a header and the columns left,right and optionally name (relative paths
@@ -97,6 +101,8 @@ def batch(ctx, pairs_csv, out, scheduler, workers, **params):
     """
     quiet = bool((ctx.find_root().obj or {}).get("quiet"))
     given = given_parameters(params, hopmatch.DericheMoravecDetector, hopmatch.HopfieldMatcher)
+    if unrectified:
+        given["rectified"] = False
     if scheduler and workers:
         raise click.UsageError("--workers sets the size of the local cluster; it cannot be "
                                "used with --scheduler (size that cluster where it runs)")
