@@ -155,6 +155,10 @@ def feature_image(gray: np.ndarray, on: str, alpha: float, omega: float,
 #: (``hopmatch._kernels.deriche``), or ``"opencv"``, ``cv2.ximgproc.GradientDericheX/Y``
 #: (double precision, the reference the kernel is tested against; docs/method.md).
 DERICHE_METHOD = "numba"
+#: Below this ``alpha`` :func:`deriche_magnitude` uses OpenCV's double-precision filter:
+#: the recursions' gain grows as ``1 / (1 - exp(-alpha))**2``, and float32 keeps the 1e-4
+#: agreement with it only down to about ``alpha = 0.03`` (docs/method.md).
+FLOAT32_MIN_ALPHA = 0.1
 #: Images of at most this many pixels keep the kernel's intermediate images per thread
 #: between calls: memory that is new to the process costs a page fault per 4 KiB on its
 #: first write, more than the filtering itself (docs/performance.md).
@@ -180,19 +184,19 @@ def _buffers(h: int, w: int) -> dict:
 
 
 def deriche_components(gray: np.ndarray, alpha: float, omega: float, *,
-                       components: bool = False):
+                       components: bool = False, border: int | None = None):
     """G (float32, ``gray``'s shape) of :func:`deriche_magnitude` with hopmatch's float32
     kernel; with ``components``, ``(G, Gx, Gy)``.
 
     ``Gx`` and ``Gy`` are ``cv2.ximgproc.GradientDericheX/Y`` of ``gray`` mirrored by
-    :func:`border_width` pixels, cropped: the same recursive filters
+    ``border`` pixels (:func:`border_width` when None), cropped: the same recursive filters
     (:func:`hopmatch._kernels.deriche.deriche_pass`) in float32, agreeing with OpenCV's
     double-precision filters within 1e-6 of ``max |G|`` on images and parameters near the
     defaults (docs/method.md). A row pass on the transposed image (lanes: the rows), then a
     column pass on its outputs transposed back (lanes: the columns).
     """
     h, w = gray.shape
-    b = border_width(alpha)
+    b = border_width(alpha) if border is None else border
     ws = _buffers(h, w)
     t = ws["t"]
     if gray.dtype == np.float32:
@@ -228,9 +232,10 @@ def deriche_magnitude(gray: np.ndarray, alpha: float, omega: float,
     along the border (up to 77 grey levels on a flat 128 image with alpha = 1). The image is
     therefore mirrored by :func:`border_width` pixels first, and the result cropped.
     ``method``: :data:`DERICHE_METHOD` when None; ``"numba"``
-    (:func:`deriche_components`) or ``"opencv"`` (``cv2.ximgproc`` on a mirrored copy).
+    (:func:`deriche_components`, for ``alpha >= FLOAT32_MIN_ALPHA``) or ``"opencv"``
+    (``cv2.ximgproc`` on a mirrored copy).
     """
-    if (method or DERICHE_METHOD) == "numba":
+    if (method or DERICHE_METHOD) == "numba" and alpha >= FLOAT32_MIN_ALPHA:
         return deriche_components(gray, alpha, omega)
     b = border_width(alpha)
     padded = cv2.copyMakeBorder(gray, b, b, b, b, cv2.BORDER_REFLECT)
