@@ -59,7 +59,7 @@ def coefficients(alpha: float, omega: float) -> np.ndarray:
     return np.array([a, b1, b2, a0, a1, a2, a3], dtype=np.float64)
 
 
-@jit(inline=True)
+@jit("int64(int64, int64)")
 def _reflect(p, n):
     """``cv2.borderInterpolate(p, n, cv2.BORDER_REFLECT)``: ``...cba|abc...|...cba``."""
     if n == 1:
@@ -72,7 +72,7 @@ def _reflect(p, n):
     return p
 
 
-@jit(inline=True)
+@jit("void(int64, float64[::1], boolean, float64[::1], float64[::1])")
 def _constant_response(n, c, vertical, deriv, smooth):
     """The derivative and smoothing filters of one axis applied to ``n`` ones, in float64,
     into ``deriv`` and ``smooth``; ``vertical`` chooses the column filters' start-up values
@@ -119,7 +119,13 @@ def _constant_response(n, c, vertical, deriv, smooth):
 
 
 
-@jit(inline=True)
+#: States smaller than this are flushed to 0 (:func:`_step`); the filters' values are
+#: about the grey levels, 1e30 times larger.
+TINY = np.float32(1e-30)
+
+
+@jit("void(float32[:, ::1], int64, float32[:, ::1], int64, int64, int64, int64, float32, "
+     "float32, float32, float32, float32, int64)")
 def _step(o, io, x, ia, ib, i1, i2, ca, cb, c1, c2, sub, n):
     """One step of a recursion on ``n`` lanes: row ``io`` of ``o`` becomes ``ca (x[ia] - sub)
     + cb (x[ib] - sub) + c1 o[i1] + c2 o[i2]`` (inputs in rows of ``x``, the two previous
@@ -129,11 +135,6 @@ def _step(o, io, x, ia, ib, i1, i2, ca, cb, c1, c2, sub, n):
     for k in range(n):
         v = ca * (x[ia, k] - sub) + cb * (x[ib, k] - sub) + c1 * o[i1, k] + c2 * o[i2, k]
         o[io, k] = np.float32(0.0) if abs(v) < TINY else v
-
-
-#: States smaller than this are flushed to 0 (:func:`_step`); the filters' values are
-#: about the grey levels, 1e30 times larger.
-TINY = np.float32(1e-30)
 
 
 @jit("void(float32[:, ::1], float32[:, ::1], int64, float64[::1], boolean, float32, "

@@ -161,7 +161,7 @@ DERICHE_METHOD = "numba"
 FLOAT32_MIN_ALPHA = 0.1
 #: Images of at most this many pixels keep the kernel's intermediate images per thread
 #: between calls: memory that is new to the process costs a page fault per 4 KiB on its
-#: first write, more than the filtering itself (docs/performance.md).
+#: first write, more than the filtering itself (docs/method.md).
 WORKSPACE_PIXELS = 1 << 22
 
 _workspace = threading.local()
