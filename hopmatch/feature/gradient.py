@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 
 from .._kernels import deriche as _kd
+from .._kernels.deriche import coefficients as deriche_coefficients
 from .._params import real
 from .._validate import as_gray_image
 from ..errors import InvalidArgumentError
@@ -205,7 +206,7 @@ def deriche_components(gray: np.ndarray, alpha: float, omega: float, *,
         np.copyto(t, cv2.transpose(gray))
     lo, hi, _, _ = cv2.minMaxLoc(t)
     off = np.float32(0.5 * (lo + hi))
-    coeffs = _kd.coefficients(alpha, omega)
+    coeffs = deriche_coefficients(alpha, omega)
     _kd.deriche_pass(t, t, b, coeffs, True, off, ws["dt"], ws["st"], ws["resp_r"], _NONE,
                      np.float32(0.0), _NONE)
     cv2.transpose(ws["dt"], ws["d"])
