@@ -192,9 +192,9 @@ def deriche_components(gray: np.ndarray, alpha: float, omega: float, *,
     ``Gx`` and ``Gy`` are ``cv2.ximgproc.GradientDericheX/Y`` of ``gray`` mirrored by
     ``border`` pixels (:func:`border_width` when None), cropped: the same recursive filters
     (:func:`hopmatch._kernels.deriche.deriche_pass`) in float32, agreeing with OpenCV's
-    double-precision filters within 1e-6 of ``max |G|`` on images and parameters near the
-    defaults (docs/method.md). A row pass on the transposed image (lanes: the rows), then a
-    column pass on its outputs transposed back (lanes: the columns).
+    double-precision filters within 1e-4 of ``max |G|`` for ``alpha >=
+    FLOAT32_MIN_ALPHA`` (docs/method.md). A row pass on the transposed image (lanes: the
+    rows), then a column pass on its outputs transposed back (lanes: the columns).
     """
     h, w = gray.shape
     b = border_width(alpha) if border is None else border
