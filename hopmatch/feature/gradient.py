@@ -8,8 +8,6 @@ import threading
 import cv2
 import numpy as np
 
-from .._kernels import deriche as _kd
-from .._kernels.deriche import coefficients as deriche_coefficients
 from .._params import real
 from .._validate import as_gray_image
 from ..errors import InvalidArgumentError
@@ -196,6 +194,11 @@ def deriche_components(gray: np.ndarray, alpha: float, omega: float, *,
     FLOAT32_MIN_ALPHA`` (docs/method.md). A row pass on the transposed image (lanes: the
     rows), then a column pass on its outputs transposed back (lanes: the columns).
     """
+    # imported here: its kernels have explicit signatures, so importing the module compiles
+    # them (or loads them from the cache); the first gradient, not `import hopmatch`, waits
+    from .._kernels import deriche as _kd
+    from .._kernels.deriche import coefficients as deriche_coefficients
+
     h, w = gray.shape
     b = border_width(alpha) if border is None else border
     ws = _buffers(h, w)
