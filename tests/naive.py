@@ -26,6 +26,90 @@ DIRECTIONS = ((1, 0), (1, 1), (0, 1), (-1, 1))
 # ======================================================================================
 
 
+def deriche_coefficients(alpha, omega):
+    """OpenCV's ``(a, b1, b2, a0, a1, a2, a3)`` of ``cv2.ximgproc.GradientDericheX/Y``
+    (``deriche_filter.cpp``), in float64, formula by formula."""
+    ea, e2a = math.exp(-alpha), math.exp(-2 * alpha)
+    co, so = math.cos(omega), math.sin(omega)
+    c = (1 - 2 * ea * co + e2a) / (ea * so)
+    a = -c * ea * so
+    b1, b2 = -2 * ea * co, e2a
+    a2po2 = alpha * alpha + omega * omega
+    k = (1 - 2 * ea * co + e2a) * a2po2 / (2 * alpha * ea * so + omega - omega * e2a)
+    c1, c2 = k * alpha / a2po2, k * omega / a2po2
+    a0 = c2
+    a1 = (-c2 * co + c1 * so) * ea
+    return a, b1, b2, a0, a1, a1 - c2 * b1, -c2 * b2
+
+
+def deriche_derivative_1d(x, coeffs, column):
+    """OpenCV's derivative filter of the sequence ``x`` (float64): ``a (g1 - g2)`` with the
+    causal ``g1[i] = x[i-1] - b1 g1[i-1] - b2 g1[i-2]`` and the anti-causal ``g2[i] = x[i+1]
+    - b1 g2[i+1] - b2 g2[i+2]``, and OpenCV's first two values of each, which differ
+    between its column filter (``VerticalIIRFilter``) and its row filter."""
+    a, b1, b2 = coeffs[:3]
+    n = len(x)
+    g1, g2 = np.zeros(n), np.zeros(n)
+    g1[0] = x[0]
+    if n > 1:
+        g1[1] = (x[0] if column else x[1]) - b1 * g1[0]
+    for i in range(2, n):
+        g1[i] = x[i - 1] - b1 * g1[i - 1] - b2 * g1[i - 2]
+    g2[n - 1] = x[n - 1]
+    if n > 1:
+        g2[n - 2] = x[n - 1] + (b1 if column else -b1) * g2[n - 1]
+    for i in range(n - 3, -1, -1):
+        g2[i] = x[i + 1] - b1 * g2[i + 1] - b2 * g2[i + 2]
+    return a * (g1 - g2)
+
+
+def deriche_smoothing_1d(x, coeffs, column):
+    """OpenCV's smoothing filter of ``x`` (float64): ``g1 + g2`` with ``g1[i] = a0 x[i] + a1
+    x[i-1] - b1 g1[i-1] - b2 g1[i-2]`` and ``g2[i] = a2 x[i+1] + a3 x[i+2] - b1 g2[i+1] -
+    b2 g2[i+2]``, and OpenCV's first two values of each (row and column filters differ in
+    ``g1[1]``)."""
+    _, b1, b2, a0, a1, a2, a3 = coeffs
+    n = len(x)
+    g1, g2 = np.zeros(n), np.zeros(n)
+    g1[0] = (a0 + a1) * x[0]
+    if n > 1:
+        g1[1] = a0 * x[1] + a1 * (x[0] if column else x[1]) - b1 * g1[0]
+    for i in range(2, n):
+        g1[i] = a0 * x[i] + a1 * x[i - 1] - b1 * g1[i - 1] - b2 * g1[i - 2]
+    g2[n - 1] = (a2 + a3) * x[n - 1]
+    if n > 1:
+        g2[n - 2] = (a2 + a3) * x[n - 1] - b2 * g2[n - 1]
+    for i in range(n - 3, -1, -1):
+        g2[i] = a2 * x[i + 1] + a3 * x[i + 2] - b1 * g2[i + 1] - b2 * g2[i + 2]
+    return g1 + g2
+
+
+def deriche_xy(image, alpha, omega):
+    """``cv2.ximgproc.GradientDericheX`` and ``GradientDericheY`` of ``image`` as OpenCV
+    computes them: X is the row derivative, rounded to float32, then the column smoothing;
+    Y the column derivative, rounded, then the row smoothing. float32 results."""
+    c = deriche_coefficients(alpha, omega)
+    img = np.asarray(image, dtype=np.float64)
+    rows = np.array([deriche_derivative_1d(r, c, False) for r in img])
+    rows = rows.astype(np.float32).astype(np.float64)
+    gx = np.array([deriche_smoothing_1d(col, c, True) for col in rows.T]).T
+    cols = np.array([deriche_derivative_1d(col, c, True) for col in img.T]).T
+    cols = cols.astype(np.float32).astype(np.float64)
+    gy = np.array([deriche_smoothing_1d(r, c, False) for r in cols])
+    return gx.astype(np.float32), gy.astype(np.float32)
+
+
+def deriche_padded_xy(image, alpha, omega, border):
+    """:func:`deriche_xy` of ``image`` mirrored by ``border`` pixels
+    (``cv2.BORDER_REFLECT``: ``cba|abc``, repeated when the border is wider than the
+    image), cropped back to ``image``'s shape."""
+    img = np.asarray(image)
+    padded = np.pad(img, border, mode="symmetric") if border else img
+    gx, gy = deriche_xy(padded, alpha, omega)
+    h, w = img.shape
+    return gx[border:border + h, border:border + w], gy[border:border + h, border:border + w]
+
+
 def directional_variances(g, window_size):
     """Eq. 1 for each direction separately: ``V_theta(p)`` as a (4, H, W) float64 array.
 

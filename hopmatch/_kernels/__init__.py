@@ -2,6 +2,7 @@
 validated C-contiguous arrays and scalars, and never allocate anything of size
 ``Nl x Nr x Nl x Nr``.
 
+- :mod:`.deriche`: the Canny-Deriche gradient in float32 (section 1, item 1);
 - :mod:`.moravec`: Moravec directional variance and selection (eqs. 1-2);
 - :mod:`.descriptor`: the mean-subtracted windows (eqs. 8-9);
 - :mod:`.candidates`: the candidate pairs, the neurons (section 4's search window);

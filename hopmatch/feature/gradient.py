@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import threading
 
 import cv2
 import numpy as np
@@ -165,14 +166,97 @@ def feature_image(gray: np.ndarray, on: str, alpha: float, omega: float,
     return img
 
 
-def deriche_magnitude(gray: np.ndarray, alpha: float, omega: float) -> np.ndarray:
+#: How :func:`deriche_magnitude` filters by default: ``"numba"``, hopmatch's float32 kernel
+#: (``hopmatch._kernels.deriche``), or ``"opencv"``, ``cv2.ximgproc.GradientDericheX/Y``
+#: (double precision, the reference the kernel is tested against; docs/method.md).
+DERICHE_METHOD = "numba"
+#: Below this ``alpha`` :func:`deriche_magnitude` uses OpenCV's double-precision filter:
+#: the recursions' gain grows as ``1 / (1 - exp(-alpha))**2``, and float32 keeps the 1e-4
+#: agreement with it only down to about ``alpha = 0.03`` (docs/method.md).
+FLOAT32_MIN_ALPHA = 0.1
+#: Images of at most this many pixels keep the kernel's intermediate images per thread
+#: between calls: memory that is new to the process costs a page fault per 4 KiB on its
+#: first write, more than the filtering itself (docs/method.md).
+WORKSPACE_PIXELS = 1 << 22
+
+_workspace = threading.local()
+_NONE = np.empty((0, 0), np.float32)
+
+
+def _buffers(h: int, w: int) -> dict:
+    """The float32 intermediate images of :func:`deriche_components` for an ``h x w``
+    image: this thread's from the last call when the shape is the same, else new ones
+    (kept for the next call when ``h * w <= WORKSPACE_PIXELS``)."""
+    ws = getattr(_workspace, "buffers", None)
+    if ws is not None and ws["shape"] == (h, w):
+        return ws
+    ws = {"shape": (h, w), "resp_r": np.empty((2, w)), "resp_c": np.empty((2, h))}
+    for name, shape in (("t", (w, h)), ("dt", (w, h)), ("st", (w, h)), ("d", (h, w)),
+                        ("s", (h, w)), ("x", (h, w)), ("y", (h, w))):
+        ws[name] = np.empty(shape, np.float32)
+    _workspace.buffers = ws if h * w <= WORKSPACE_PIXELS else None
+    return ws
+
+
+def deriche_components(gray: np.ndarray, alpha: float, omega: float, *,
+                       components: bool = False, border: int | None = None):
+    """G (float32, ``gray``'s shape) of :func:`deriche_magnitude` with hopmatch's float32
+    kernel; with ``components``, ``(G, Gx, Gy)``.
+
+    ``Gx`` and ``Gy`` are ``cv2.ximgproc.GradientDericheX/Y`` of ``gray`` mirrored by
+    ``border`` pixels (:func:`border_width` when None), cropped: the same recursive filters
+    (:func:`hopmatch._kernels.deriche.deriche_pass`) in float32, agreeing with OpenCV's
+    double-precision filters within 1e-4 of ``max |G|`` for ``alpha >=
+    FLOAT32_MIN_ALPHA`` (docs/method.md). A row pass on the transposed image (lanes: the
+    rows), then a column pass on its outputs transposed back (lanes: the columns).
+    """
+    # imported here: its kernels have explicit signatures, so importing the module compiles
+    # them (or loads them from the cache); the first gradient, not `import hopmatch`, waits
+    from .._kernels import deriche as _kd
+    from .._kernels.deriche import coefficients as deriche_coefficients
+
+    h, w = gray.shape
+    b = border_width(alpha) if border is None else border
+    ws = _buffers(h, w)
+    t = ws["t"]
+    if gray.dtype == np.float32:
+        cv2.transpose(gray, t)
+    else:
+        np.copyto(t, cv2.transpose(gray))
+    lo, hi, _, _ = cv2.minMaxLoc(t)
+    off = np.float32(0.5 * (lo + hi))
+    coeffs = deriche_coefficients(alpha, omega)
+    _kd.deriche_pass(t, t, b, coeffs, True, off, ws["dt"], ws["st"], ws["resp_r"], _NONE,
+                     np.float32(0.0), _NONE)
+    cv2.transpose(ws["dt"], ws["d"])
+    cv2.transpose(ws["st"], ws["s"])
+    g = np.empty((h, w), np.float32)
+    lane = ws["resp_r"].astype(np.float32)
+    # Y differentiates the row smoothing, X smooths the row derivative
+    _kd.deriche_pass(ws["s"], ws["d"], b, coeffs, False, np.float32(0.0), ws["y"], ws["x"],
+                     ws["resp_c"], lane, off, g)
+    cv2.sqrt(g, g)
+    if not components:
+        return g
+    gx = ws["x"] + np.float32(off) * np.outer(ws["resp_c"][1], lane[0]).astype(np.float32)
+    gy = ws["y"] + np.float32(off) * np.outer(ws["resp_c"][0], lane[1]).astype(np.float32)
+    return g, gx, gy
+
+
+def deriche_magnitude(gray: np.ndarray, alpha: float, omega: float,
+                      method: str | None = None) -> np.ndarray:
     """:func:`deriche_gradient` on an already validated grey image (as
     :func:`~hopmatch._validate.as_gray_image` returns it) and validated parameters.
 
     The recursive filter starts from zero outside the image, which puts strong false edges
     along the border (up to 77 grey levels on a flat 128 image with alpha = 1). The image is
     therefore mirrored by :func:`border_width` pixels first, and the result cropped.
+    ``method``: :data:`DERICHE_METHOD` when None; ``"numba"``
+    (:func:`deriche_components`, for ``alpha >= FLOAT32_MIN_ALPHA``) or ``"opencv"``
+    (``cv2.ximgproc`` on a mirrored copy).
     """
+    if (method or DERICHE_METHOD) == "numba" and alpha >= FLOAT32_MIN_ALPHA:
+        return deriche_components(gray, alpha, omega)
     b = border_width(alpha)
     padded = cv2.copyMakeBorder(gray, b, b, b, b, cv2.BORDER_REFLECT)
     gx = cv2.ximgproc.GradientDericheX(padded, alpha, omega)

@@ -163,9 +163,12 @@ def test_detector_smoke_has_the_readme_rows(run_all_page):
         out,
         r"\| method \| ms \| ratio hopmatch / method \|",
         table_row(r"hopmatch detect \(KeyPoints\)", NUM, r"1\.00"),
-        table_row(r"of which Deriche gradient \(cv2\.ximgproc\)", NUM, NUM),
+        table_row(r"of which Deriche gradient \(float32 kernel\)", NUM, NUM),
+        table_row(r"Deriche gradient with cv2\.ximgproc \(the reference\)", NUM, NUM),
         table_row(r"cv2\.GFTTDetector \(\d+ points\)", NUM, NUM),
         table_row(r"skimage corner_moravec \+ corner_peaks", NUM, NUM),
+        rf"Goal: Deriche gradient, one image, vs cv2\.GFTTDetector detection with the same "
+        rf"number of points: <= 0\.5x: {NUM}x, (NOT )?met \(cv2\.ximgproc: {NUM}x\)",
         table_row(r"gradient \(defaults\)", r"\d+", r"\d+", NUM, r"True|False", r"\d+", NUM),
         table_row("true correspondent", *[NUM] * 7),
         table_row("chance", *[NUM] * 7),

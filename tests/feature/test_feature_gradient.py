@@ -78,3 +78,89 @@ def test_both_images_as_floats_in_unit_range_match_as_uint8():
     got = hopmatch.match_stereo(left.astype(np.float32) / 255, right.astype(np.float32) / 255,
                                 max_disparity=16)
     assert abs(len(got.matches) - len(want.matches)) <= 0.02 * len(want.matches)
+
+
+# ---- the float32 Canny-Deriche kernel against OpenCV's filter (issue 17) ----
+
+from concurrent.futures import ThreadPoolExecutor  # noqa: E402
+
+from hopmatch.feature import gradient as _gradient  # noqa: E402
+from hopmatch.feature.gradient import deriche_magnitude  # noqa: E402
+
+#: max |ours - cv2| / max |cv2| allowed between the float32 kernel and cv2.ximgproc
+AGREEMENT = 1e-4
+
+
+def _relative(got, want):
+    return float(np.abs(got.astype(np.float64) - want).max() / np.abs(want).max())
+
+
+def _gray(bgr):
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY) if bgr.ndim == 3 else bgr
+
+
+@pytest.mark.parametrize("alpha, omega", [(1.0, 0.001), (0.5, 0.1), (2.0, 1e-4), (0.1, 0.001),
+                                          (5.0, 0.5), (14.0, 0.001)])
+def test_kernel_agrees_with_opencv_on_motorcycle(motorcycle, alpha, omega):
+    left = np.ascontiguousarray(motorcycle[0][..., ::-1])
+    gray = normalised_intensity(_gray(left))
+    want = deriche_magnitude(gray, alpha, omega, method="opencv")
+    got = deriche_magnitude(gray, alpha, omega)
+    assert got.dtype == np.float32 and got.shape == gray.shape
+    assert _relative(got, want) <= AGREEMENT
+    strong = want > 0.01 * want.max()  # per pixel, where G is not negligible
+    assert np.max(np.abs(got - want)[strong] / want[strong]) <= 1e-3
+
+
+def test_kernel_agrees_with_opencv_on_a_shared_scene(shared_data):
+    from hopmatch.datasets import load_scene
+
+    scene = load_scene(shared_data / "middlebury" / "tsukuba")
+    for img in (scene.left, scene.right):
+        gray = normalised_intensity(_gray(img))
+        for alpha in (0.7, 1.0, 1.5):
+            want = deriche_magnitude(gray, alpha, 0.001, method="opencv")
+            assert _relative(deriche_magnitude(gray, alpha, 0.001), want) <= AGREEMENT
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16, np.float32])
+@pytest.mark.parametrize("shape", [(1, 1), (1, 9), (8, 1), (5, 5), (31, 17), (64, 97)])
+def test_kernel_agrees_with_opencv_on_random_images(shape, dtype):
+    rng = np.random.default_rng(shape[0] * 100 + shape[1])
+    img = rng.uniform(0, 200, shape).astype(dtype)
+    for raw in (img, normalised_intensity(img)):
+        for alpha, omega in ((1.0, 0.001), (0.3, 0.2), (3.0, 0.001)):
+            want = deriche_magnitude(raw, alpha, omega, method="opencv")
+            assert _relative(deriche_magnitude(raw, alpha, omega), want) <= AGREEMENT
+
+
+def test_constant_image_keeps_opencvs_border_response():
+    flat = np.full((20, 30), 137, np.uint8)
+    want = deriche_magnitude(flat, 1.0, 0.001, method="opencv")
+    assert want.max() > 0  # OpenCV's start-up values: a faint edge along the border
+    assert _relative(deriche_magnitude(flat, 1.0, 0.001), want) <= AGREEMENT
+
+
+def test_method_setting_and_small_alpha_fall_back_to_opencv(monkeypatch):
+    rng = np.random.default_rng(3)
+    img = rng.uniform(0, 255, (40, 50)).astype(np.float32)
+    want = deriche_magnitude(img, 1.0, 0.001, method="opencv")
+    monkeypatch.setattr(_gradient, "DERICHE_METHOD", "opencv")
+    np.testing.assert_array_equal(deriche_magnitude(img, 1.0, 0.001), want)
+    monkeypatch.setattr(_gradient, "DERICHE_METHOD", "numba")
+    assert not np.array_equal(deriche_magnitude(img, 1.0, 0.001), want)
+    small = _gradient.FLOAT32_MIN_ALPHA / 2
+    np.testing.assert_array_equal(deriche_magnitude(img, small, 0.001),
+                                  deriche_magnitude(img, small, 0.001, method="opencv"))
+
+
+def test_kernel_is_deterministic_across_threads_and_shapes():
+    """Each thread keeps its own intermediate images; shapes may change between calls."""
+    rng = np.random.default_rng(4)
+    images = [rng.uniform(0, 255, s).astype(np.float32) for s in [(60, 80), (33, 41)] * 4]
+    alone = [deriche_magnitude(img, 1.0, 0.001) for img in images]
+    with ThreadPoolExecutor(2) as pool:
+        both = list(pool.map(lambda img: deriche_magnitude(img, 1.0, 0.001), images))
+    for a, b in zip(alone, both):
+        np.testing.assert_array_equal(a, b)
+    assert not np.shares_memory(alone[0], alone[2])
