@@ -235,10 +235,18 @@ def _grey(image, name: str) -> np.ndarray:
     return cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
 
 
-def _dots(img, pts: np.ndarray, colours: np.ndarray, radius: int, dx: int = 0) -> None:
-    """Filled dots with a dark rim (visible on light and dark backgrounds alike)."""
+#: Image area per match (px^2) below which the overview's dots lose their dark rim: dense
+#: matches are visible as a colour field, and rims would hide the image under them.
+DENSE_DOT_AREA = 150.0
+
+
+def _dots(img, pts: np.ndarray, colours: np.ndarray, radius: int, dx: int = 0,
+          rim: bool = True) -> None:
+    """Filled dots, with a dark rim (visible on light and dark backgrounds alike) when
+    ``rim``."""
     for (x, y), c in zip(np.rint(pts).astype(np.int64).tolist(), colours.tolist()):
-        cv2.circle(img, (x + dx, y), radius + 1, (0, 0, 0), -1, cv2.LINE_AA)
+        if rim:
+            cv2.circle(img, (x + dx, y), radius + 1, (0, 0, 0), -1, cv2.LINE_AA)
         cv2.circle(img, (x + dx, y), radius, _colour(c), -1, cv2.LINE_AA)
 
 
@@ -272,7 +280,9 @@ def draw_match_overview(left, right, kps_l, kps_r, matches, disparities=None, *,
                         correct=None, known=None, max_lines: int | None = None,
                         min_disparity=None, max_disparity=None) -> np.ndarray:
     """Both images side by side with every match as a dot and a spread-out subset as lines,
-    coloured by disparity, over a caption with the counts and the colour scale.
+    coloured by disparity, over a caption with the counts and the colour scale. Dots have
+    a dark rim unless the matches are dense (less than :data:`DENSE_DOT_AREA` px^2 of the
+    left image each).
 
     Parameters
     ----------
@@ -331,8 +341,9 @@ def draw_match_overview(left, right, kps_l, kps_r, matches, disparities=None, *,
         a = tuple(np.rint(ml[i]).astype(int).tolist())
         b = (int(round(float(mr[i, 0]))) + wl, int(round(float(mr[i, 1]))))
         cv2.line(canvas, a, b, _colour(colours[i]), 1, cv2.LINE_AA)
-    _dots(canvas, ml, colours, 1)
-    _dots(canvas, mr, colours, 1, dx=wl)
+    rim = len(pairs) == 0 or hl * wl / len(pairs) >= DENSE_DOT_AREA
+    _dots(canvas, ml, colours, 1, rim=rim)
+    _dots(canvas, mr, colours, 1, dx=wl, rim=rim)
     for i in lines.tolist():  # the ends of the lines, larger
         for p, dx in ((ml[i], 0), (mr[i], wl)):
             x, y = int(round(float(p[0]))) + dx, int(round(float(p[1])))
