@@ -185,11 +185,10 @@ def resolve_disparity_range(config, q_pts, t_pts, qd, td, query_size, run_networ
     DisparityRange
     """
     floor = config.min_disparity
-    if config.max_disparity is not None:
-        return DisparityRange(0.0 if floor is None else float(floor),
-                              float(config.max_disparity), "given")
-    width = search_width(query_size, q_pts, t_pts)
     bottom, top = search_range(config, query_size, q_pts, t_pts)
+    if config.max_disparity is not None:
+        return DisparityRange(bottom, top, "given")
+    width = search_width(query_size, q_pts, t_pts)
     fallback = DisparityRange(bottom, top, "fallback")
     if not len(q_pts) or not len(t_pts) or not len(qd) or not len(td):
         return fallback._replace(source="empty")
