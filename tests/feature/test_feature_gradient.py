@@ -52,6 +52,28 @@ def test_spread_ignores_the_black_fill_of_a_warped_view():
     assert intensity_spread(binary) == 200.0
 
 
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+@pytest.mark.parametrize("case", ["texture", "black fill", "two levels", "flat", "tiny",
+                                  "large", "sparse levels"])
+def test_histogram_spread_equals_the_percentile_of_the_grey_levels(dtype, case):
+    """The 8- and 16-bit path (a histogram) gives np.percentile's result on the same grey
+    levels as float32 to the last bit: the float path is its reference."""
+    rng = np.random.default_rng(len(case) + 7 * np.dtype(dtype).itemsize)
+    top = np.iinfo(dtype).max
+    shape = {"tiny": (1, 3), "large": (1500, 1100)}.get(case, (97, 131))
+    img = rng.integers(0, top, shape, endpoint=True).astype(dtype)
+    if case == "black fill":
+        img[:, :40] = 0
+    elif case == "two levels":
+        img = np.where(rng.random(shape) < 0.3, 0, top // 3).astype(dtype)
+    elif case == "flat":
+        img[:] = top // 2
+    elif case == "sparse levels":
+        img = (rng.integers(0, 5, shape) * (top // 5)).astype(dtype)
+    assert intensity_spread(img) == intensity_spread(img.astype(np.float32))
+
+
 @pytest.mark.parametrize("label, make", [
     ("uint16 x257", lambda r: r.astype(np.uint16) * 257),
     ("float32 in [0, 1]", lambda r: r.astype(np.float32) / 255),
