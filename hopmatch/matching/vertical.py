@@ -92,10 +92,12 @@ def fit_row_offset(left: np.ndarray, dy: np.ndarray, weights=None) -> RowOffset:
         r = res / (PLANE_TUKEY * scale)
         w = prior * np.where(np.abs(r) < 1.0, (1.0 - r * r) ** 2, 0.0)
         sw = np.sqrt(w)
-        a = design * sw[:, None]
-        if np.linalg.matrix_rank(a) < 3:
+        # lstsq's rank uses matrix_rank's tolerance (eps * max(M, N) * the largest
+        # singular value): one SVD per iteration answers both.
+        fit, _, rank, _ = np.linalg.lstsq(design * sw[:, None], dy * sw, rcond=None)
+        if rank < 3:
             return base
-        coef = np.linalg.lstsq(a, dy * sw, rcond=None)[0]
+        coef = fit
     return RowOffset(float(coef[0]), float(coef[1]), float(coef[2]), cx, cy)
 
 
