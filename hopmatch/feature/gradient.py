@@ -147,14 +147,20 @@ def histogram_spread(sample: np.ndarray) -> float:
     statistics that ``np.percentile``'s linear method interpolates between are read off
     the cumulative counts, and interpolated with its arithmetic, so the result is the
     same to the last bit (tests/feature/test_feature_gradient.py compares the two)."""
-    counts = np.bincount(sample.ravel(), minlength=1)
-    low = int(np.flatnonzero(counts)[0]) if sample.size else 0
+    if sample.size == 0:
+        return 0.0
+    if sample.dtype == np.uint8:  # OpenCV's histogram: 3x faster than np.bincount
+        counts = cv2.calcHist([np.ascontiguousarray(sample)], [0], None, [256], [0, 256])
+        counts = counts[:, 0].astype(np.int64)
+    else:
+        counts = np.bincount(sample.ravel(), minlength=1)
+    low = int(np.flatnonzero(counts)[0])
     spread = 0.0
-    if sample.size and 2 * (sample.size - counts[low]) > sample.size:
+    if 2 * (sample.size - counts[low]) > sample.size:
         inner = counts.copy()
         inner[low] = 0
         spread = counts_spread(inner)
-    if not spread > 0.0 and sample.size:
+    if not spread > 0.0:
         spread = counts_spread(counts)
     return spread
 
