@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 
 import hopmatch
+from hopmatch import datasets
+from hopmatch.matching import vertical
 from hopmatch.matching.disambiguate import vertically_consistent
 from hopmatch.matching.vertical import (
     PLANE_MIN_MATCHES,
@@ -123,6 +125,25 @@ def test_row_offset_prior_recovers_an_injected_offset(dy, degrees):
     truth = q[:, 1] - (np.c_[q, np.ones(len(q))] @ m.T)[:, 1]  # yl - yr at each left point
     assert np.median(np.abs(prior.offset.at(q) - truth)) < 0.3
     assert prior.disparity == pytest.approx(8.0, abs=1.0)
+    if degrees == 0.0:  # a shift asks for no slope: the constant model is taken
+        assert prior.offset.b == 0.0 and prior.offset.c == 0.0
+
+
+def test_the_prior_samples_more_points_when_few_look_alikes_are_clear(monkeypatch):
+    """When the first sample gives fewer clear look-alikes than a plane needs (here: a
+    first sample of 40 points, at most 40 look-alikes), the sample doubles until it
+    does, and the rotation's plane is found."""
+    monkeypatch.setattr(vertical, "PRIOR_SAMPLE", 40)
+    left, right, m = shifted_texture_pair(0.0, 0.4)
+    det = hopmatch.DericheMoravecDetector()
+    kl, dl = det.detectAndCompute(left, None)
+    kr, dr = det.detectAndCompute(right, None)
+    q, t = cv2.KeyPoint_convert(kl), cv2.KeyPoint_convert(kr)
+    assert len(q) > 4 * 40
+    prior = row_offset_prior(q, t, dl, dr, 0.0, 16.0, 1.0)
+    assert prior is not None and prior.offset.b != 0.0
+    truth = q[:, 1] - (np.c_[q, np.ones(len(q))] @ m.T)[:, 1]
+    assert np.median(np.abs(prior.offset.at(q) - truth)) < 0.3
 
 
 def test_a_rectified_pair_gets_no_prior():
@@ -158,3 +179,13 @@ def test_match_stereo_follows_rows_offset_beyond_its_band(dy, degrees):
     assert ok.mean() >= 0.97
     assert res.network.row_prior is not None
     np.testing.assert_array_equal(res.matched_right, res.points_right[res.train_idx])
+
+
+def test_a_plane_the_rows_fit_as_well_is_not_taken(shared_data):
+    """KITTI #70 as it is: the look-alikes' robust plane reaches 1 px at a corner, but fits
+    hardly more of them within 0.5 px than the plain rows do (54 % against 51 %): no prior
+    (with the median-shift rule alone it was taken, and cost 23 % of the correct matches,
+    benchmarks/passes.py)."""
+    scene = datasets.load("kitti2012/000070")
+    res = hopmatch.match_stereo(scene.left, scene.right)
+    assert res.network.row_prior is None
