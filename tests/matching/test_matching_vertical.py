@@ -189,3 +189,14 @@ def test_a_plane_the_rows_fit_as_well_is_not_taken(shared_data):
     scene = datasets.load("kitti2012/000070")
     res = hopmatch.match_stereo(scene.left, scene.right)
     assert res.network.row_prior is None
+
+
+def test_a_rotation_of_one_and_a_half_degrees_is_followed():
+    """Below about 2 degrees (MAX_RESIDUAL_SLOPE) the prior follows a rotation: the guided
+    pass and the refinement run along the plane's rows."""
+    left, right, m = shifted_texture_pair(0.0, 1.5)
+    res = hopmatch.match_stereo(left, right, max_disparity=16)
+    assert res.network.row_prior is not None and res.network.row_prior.offset.is_residual()
+    assert res.refinement is not None
+    truth = (np.c_[res.matched_left, np.ones(len(res.matched_left))] @ m.T)
+    assert np.mean(np.abs(truth - res.matched_right).max(axis=1) <= 1.0) > 0.95
