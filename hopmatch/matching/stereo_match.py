@@ -417,7 +417,7 @@ def refine_radius(shape) -> int:
 
     A fixed 7 x 7 window covers 16 times less of the scene at four times the resolution;
     on motorcycle upsampled to 2964 x 2000 its ZNCC peak is too flat to fix the disparity
-    to 1 px (precision at 1 px 0.894 with 3, 0.929 with 6, 0.932 with 8 or 10), while on
+    to 1 px (precision at 1 px 0.894 with 3, 0.929 with 6, 0.932 with 8), while on
     motorcycle itself 4 already loses (docs/parameters.md, "Refinement window and image
     size")."""
     pixels = float(shape[0]) * float(shape[1])
