@@ -343,13 +343,15 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
 
 
 def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
-                   config: MatcherConfig, *,
-                   threads: int | None = None) -> StereoMatchResult:
+                   config: MatcherConfig, *, threads: int | None = None,
+                   image_shape=None) -> StereoMatchResult:
     """``result`` (the network's matches on a rectified pair) with the guided pass's
     matches appended (``config.guided``) and every match refined (``config.refine``).
 
     ``descriptors``, ``gradients`` and ``grays`` are the (left, right) windows, feature
-    images and grey images of the detection. The vertical offset both steps search along
+    images and grey images of the detection; ``image_shape`` the (H, W) of the images
+    the pair was given as, which sets the refinement window (:func:`refine_radius`;
+    default: the grey images' own). The vertical offset both steps search along
     is the robust plane (``config.vertical_model="plane"``) or the median of ``yl - yr``
     over the network's matches. Returns ``result`` itself when neither step is on, and
     with only ``row_offset`` set when that offset varies too fast for a rectified pair
@@ -386,7 +388,9 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
         yr = left[:, 1].astype(np.float64) - offset.at(left)
         refinement = refine_disparities(grays[0], grays[1], left,
                                         points_right[train_idx, 0], yr,
-                                        radius=refine_radius(np.shape(grays[0])[:2]),
+                                        radius=refine_radius(
+                                            np.shape(grays[0])[:2] if image_shape is None
+                                            else image_shape),
                                         threads=threads)
         moved = train_idx[refinement.ok]
         points_right = points_right.copy() if points_right is pts_r else points_right
@@ -474,12 +478,14 @@ def unrectified_beyond_network(result: StereoMatchResult, frame) -> StereoMatchR
     """:func:`beyond_network` (the guided pass and the refinement) on an unrectified pair
     searched along the rows of its aligned images: run in the canvas of
     :func:`~hopmatch.matching.unrectified.shared_frame`, where the pair is a rectified
-    one of one size, and every new or moved right point mapped back into the right
-    image (the inverse of the alignment)."""
+    one of one size (its refinement window that of the left image's size, not the
+    canvas's), and every new or moved right point mapped back into the right image (the
+    inverse of the alignment)."""
     pts_l, pts_r = result.points_left, result.points_right
     fl, fr, grays, grads, (_, b) = shared_frame(frame, pts_l, frame.right_points)
     out = beyond_network(dataclasses.replace(result, points_left=fl, points_right=fr),
-                         frame.descriptors, grads, grays, result.network.config)
+                         frame.descriptors, grads, grays, result.network.config,
+                         image_shape=np.shape(frame.grays[0])[:2])
     if out.points_right is fr:
         return dataclasses.replace(out, points_left=pts_l, points_right=pts_r)
     n = len(fr)
