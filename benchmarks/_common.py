@@ -35,6 +35,25 @@ def add_smoke_option(parser: argparse.ArgumentParser) -> argparse.ArgumentParser
     return parser
 
 
+def add_refine_radius_option(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """Add ``--refine-radius N`` (``args.refine_radius``, default None: the rule of
+    ``hopmatch.matching.stereo_match.refine_radius``); see :func:`force_refine_radius`."""
+    parser.add_argument("--refine-radius", type=int, default=None,
+                        help="refine with this window half-side whatever the image size "
+                             "(default: the size rule of stereo_match.refine_radius)")
+    return parser
+
+
+def force_refine_radius(radius: int | None) -> None:
+    """Make ``match_stereo`` refine with half-side ``radius`` on images of any size, in
+    this process (None: leave the size rule alone). For measuring the rule only."""
+    if radius is None:
+        return
+    from hopmatch.matching import stereo_match
+
+    stereo_match.refine_radius = lambda shape: int(radius)
+
+
 def smoke_crop(image: np.ndarray, size: tuple[int, int] = SMOKE_SIZE) -> np.ndarray:
     """The centre ``size = (width, height)`` crop of ``image`` (a contiguous copy).
 

@@ -1,7 +1,7 @@
 """Per-scene quality of match_stereo's defaults, pass by pass, against ground truth.
 
 Run: ``python benchmarks/passes.py [--scenes NAME ...] [--perturb NAME ...] [--params JSON]
-[--baselines] [--ranking]``
+[--baselines] [--ranking] [--refine-radius N]``
 
 For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
 scene there) it prints: matches, correct@1px and precision@1px
@@ -19,6 +19,10 @@ confidence that ranks keeps (near) non-increasing in k.
 points back through it before scoring: ``dy0.5`` (shifted down by 0.5 px), ``gain0.7``
 (intensities times 0.7), ``rot0.1`` (rotated 0.1 degree about the centre), ``scale0.999``,
 or any combination joined by ``+``.
+
+``--refine-radius N`` refines with that window half-side on every scene instead of the
+size rule (``hopmatch.matching.stereo_match.refine_radius``; docs/parameters.md,
+"Refinement window and image size").
 """
 
 from __future__ import annotations
@@ -33,7 +37,11 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import single_thread  # noqa: E402
+from _common import (  # noqa: E402
+    add_refine_radius_option,
+    force_refine_radius,
+    single_thread,
+)
 
 import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
@@ -139,8 +147,9 @@ def main(argv=None) -> int:
     ap.add_argument("--baselines", action="store_true", help="also SIFT and SGBM")
     ap.add_argument("--ranking", action="store_true",
                     help="also the precision of the best k %% by distance")
-    args = ap.parse_args(argv)
+    args = add_refine_radius_option(ap).parse_args(argv)
     single_thread()
+    force_refine_radius(args.refine_radius)
     params = json.loads(args.params)
     names = args.scenes or datasets.list_scenes()
     for spec in args.perturb:

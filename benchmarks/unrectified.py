@@ -1,6 +1,7 @@
 """Unrectified pairs and self-finding disparity ranges (issue 18): the figures of its goals.
 
-Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large ranges]``
+Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large ranges]
+[--scenes NAME ...] [--refine-radius N]``
 (single thread; needs ``../shared/data`` or ``$HOPMATCH_SHARED_DATA`` for every section but
 ``large``).
 
@@ -23,9 +24,16 @@ Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large 
 - ``large``: motorcycle upsampled to 2964 x 2000 (as ``benchmarks/scale.py``), rectified,
   ``match_stereo(left, right)`` with no parameter, in a fresh process: time, peak memory,
   the range found, precision at 1 and 2 px of the upsampled ground truth, and SIFT
-  ``detectAndCompute`` on both images for scale.
+  ``detectAndCompute`` on both images for scale; then precision at 1 px by where the
+  matches lie (the spread of the original ground truth over the 5 x 5 original pixels
+  around each: flat below 0.5 px, slanted 0.5-5, a depth edge from 5 px) and the mean
+  signed disparity error of the matches within 2 px.
 - ``ranges``: the range ``max_disparity=None`` finds on every shared scene against its
   ground truth (share of ground-truth pixels inside).
+
+``--refine-radius N``: refine with that window half-side instead of the size rule of
+``hopmatch.matching.stereo_match.refine_radius`` (every section; docs/parameters.md,
+"Refinement window and image size").
 
 ``--smoke``: motorcycle (centre crop) and tsukuba, one perturbation, two chessboard pairs,
 a 1000 x 675 large pair: a check that the script works (figures meaningless).
@@ -47,7 +55,14 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from _common import add_smoke_option, single_thread, smoke_scene, smoke_scenes  # noqa: E402
+from _common import (  # noqa: E402
+    add_refine_radius_option,
+    add_smoke_option,
+    force_refine_radius,
+    single_thread,
+    smoke_scene,
+    smoke_scenes,
+)
 
 import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
@@ -249,11 +264,13 @@ LARGE_CHILD = r"""
 import json, resource, sys, time
 sys.path.insert(0, {here!r})
 import cv2, numpy as np
-from _common import motorcycle_bgr, single_thread
+from _common import force_refine_radius, motorcycle_bgr, single_thread
 single_thread()
+force_refine_radius(None if sys.argv[4] == "None" else int(sys.argv[4]))
 import hopmatch
 from hopmatch.evaluate import score_matches
-left, right, gt = motorcycle_bgr()
+left, right, gt0 = motorcycle_bgr()
+gt = gt0
 size = (int(sys.argv[1]), int(sys.argv[2]))
 left = cv2.resize(cv2.cvtColor(left, cv2.COLOR_BGR2GRAY), size, interpolation=cv2.INTER_CUBIC)
 right = cv2.resize(cv2.cvtColor(right, cv2.COLOR_BGR2GRAY), size, interpolation=cv2.INTER_CUBIC)
@@ -272,16 +289,31 @@ else:
                hi=r.network.config.max_disparity, neurons=len(r.network.neuron_left))
     s = score_matches(r.matched_left, r.matched_right, gt, thresholds=(1.0, 2.0))
     out.update(p1=s.precision[1.0], p2=s.precision[2.0], c1=s.correct[1.0])
+    f = size[0] / gt0.shape[1]
+    ml = r.matched_left[s.scored]
+    xo = np.clip(np.floor((ml[:, 0] + 0.5) / f).astype(int), 0, gt0.shape[1] - 1)
+    yo = np.clip(np.floor((ml[:, 1] + 0.5) / f).astype(int), 0, gt0.shape[0] - 1)
+    g = np.nan_to_num(gt0, nan=0.0).astype(np.float32)
+    k = np.ones((5, 5), np.uint8)
+    spread = (cv2.dilate(g, k) - cv2.erode(g, k))[yo, xo]
+    e = s.errors
+    good = np.abs(e) <= 1.0
+    good &= np.abs(ml[:, 1] - r.matched_right[s.scored][:, 1]) <= 1.0
+    for name, lo, hi in (("flat", 0.0, 0.5), ("slanted", 0.5, 5.0), ("edge", 5.0, np.inf)):
+        m = (spread >= lo) & (spread < hi)
+        out[name] = [int(m.sum()), float(good[m].mean()) if m.any() else float("nan")]
+    out["bias"] = float(np.mean(e[np.abs(e) <= 2.0]))
 out["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 print(json.dumps(out))
 """
 
 
-def large(size) -> None:
+def large(size, refine_radius=None) -> None:
     runs = {}
     for mode in ("hopmatch", "sift"):
         proc = subprocess.run([sys.executable, "-c", LARGE_CHILD.format(here=str(HERE)),
-                               str(size[0]), str(size[1]), mode], capture_output=True, text=True)
+                               str(size[0]), str(size[1]), mode, str(refine_radius)],
+                              capture_output=True, text=True)
         if proc.returncode:
             raise RuntimeError(f"the {mode} run failed:\n{proc.stderr}")
         runs[mode] = json.loads(proc.stdout.strip().splitlines()[-1])
@@ -292,7 +324,10 @@ def large(size) -> None:
           f"neurons {h['neurons']}; matches {h['matches']}")
     print(f"precision: {h['p1']:.3f} at 1 px, {h['p2']:.3f} at 2 px ({h['c1']} correct at 1 px)")
     print(f"time: {h['seconds']:.2f} s; peak memory {h['peak_mb']:.0f} MB; SIFT detectAndCompute "
-          f"on both images {s['seconds']:.2f} s (ratio {h['seconds'] / s['seconds']:.2f})\n")
+          f"on both images {s['seconds']:.2f} s (ratio {h['seconds'] / s['seconds']:.2f})")
+    print("precision at 1 px by ground truth: " + "; ".join(
+        f"{name} {h[name][1]:.3f} of {h[name][0]}" for name in ("flat", "slanted", "edge"))
+          + f"; mean error within 2 px {h['bias']:+.3f} px\n")
 
 
 def ranges(names) -> None:
@@ -318,15 +353,16 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sections", nargs="*", choices=SECTIONS, default=list(SECTIONS))
     ap.add_argument("--scenes", nargs="*", help="scene names (default: every shared scene)")
-    args = add_smoke_option(ap).parse_args(argv)
+    args = add_refine_radius_option(add_smoke_option(ap)).parse_args(argv)
     single_thread()
+    force_refine_radius(args.refine_radius)
     names = args.scenes or datasets.list_scenes()
     if args.smoke and not args.scenes:
         names = smoke_scenes(names)
     shared = datasets.shared_data_dir(must_exist=False) is not None
     for section in args.sections:
         if section == "large":
-            large(SMOKE_LARGE if args.smoke else LARGE)
+            large(SMOKE_LARGE if args.smoke else LARGE, args.refine_radius)
         elif not shared and section == "chessboards":
             print("## Chessboard pairs: skipped (no shared data)\n")
         elif section == "perturbed":

@@ -20,7 +20,7 @@ from .guided import GuidedMatches, guided_pass, guided_rounds
 from .matcher import HopfieldMatcher, dmatches
 from .network import NetworkResult, PairInfo, match_pair
 from .params import MatcherConfig, matcher_config
-from .refine import Refinement, refine_disparities
+from .refine import REFINE_RADIUS, Refinement, refine_disparities
 from .unrectified import (
     UNRECTIFIED_VERTICAL,
     empty_network_result,
@@ -36,6 +36,11 @@ PASS_GUIDED = 1
 
 DETECTOR_NAMES = frozenset(p.name for p in DericheMoravecDetector.PARAMS)
 MATCHER_NAMES = frozenset(p.name for p in HopfieldMatcher.PARAMS)
+
+#: Image size (pixels) up to which the refinement keeps its ``REFINE_RADIUS`` window; the
+#: window's half-side grows with the fourth root of the pixel count beyond it
+#: (:func:`refine_radius`).
+REFINE_REFERENCE_PIXELS = 400_000
 
 
 def split_parameters(params: dict, caller: str = "match_stereo") -> tuple[dict, dict]:
@@ -338,13 +343,15 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
 
 
 def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
-                   config: MatcherConfig, *,
-                   threads: int | None = None) -> StereoMatchResult:
+                   config: MatcherConfig, *, threads: int | None = None,
+                   image_shape=None) -> StereoMatchResult:
     """``result`` (the network's matches on a rectified pair) with the guided pass's
     matches appended (``config.guided``) and every match refined (``config.refine``).
 
     ``descriptors``, ``gradients`` and ``grays`` are the (left, right) windows, feature
-    images and grey images of the detection. The vertical offset both steps search along
+    images and grey images of the detection; ``image_shape`` the (H, W) of the images
+    the pair was given as, which sets the refinement window (:func:`refine_radius`;
+    default: the grey images' own). The vertical offset both steps search along
     is the robust plane (``config.vertical_model="plane"``) or the median of ``yl - yr``
     over the network's matches. Returns ``result`` itself when neither step is on, and
     with only ``row_offset`` set when that offset varies too fast for a rectified pair
@@ -380,7 +387,11 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
         left = pts_l[query_idx]
         yr = left[:, 1].astype(np.float64) - offset.at(left)
         refinement = refine_disparities(grays[0], grays[1], left,
-                                        points_right[train_idx, 0], yr, threads=threads)
+                                        points_right[train_idx, 0], yr,
+                                        radius=refine_radius(
+                                            np.shape(grays[0])[:2] if image_shape is None
+                                            else image_shape),
+                                        threads=threads)
         moved = train_idx[refinement.ok]
         points_right = points_right.copy() if points_right is pts_r else points_right
         points_right[moved, 0] = refinement.x[refinement.ok]
@@ -400,6 +411,22 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
         query_idx=query_idx, train_idx=train_idx, distances=distances.astype(np.float32),
         timings=timings, match_timings=match_timings, passes=passes,
         n_detected_right=n_right, guided=gm, refinement=refinement, row_offset=offset)
+
+
+def refine_radius(shape) -> int:
+    """Half-side of the refinement windows for images of ``shape`` (H, W):
+    ``REFINE_RADIUS`` (7 x 7 windows) up to about 0.74 Mpixel (``REFINE_REFERENCE_PIXELS``
+    times 1.85; every shared scene but aloe), then ``round(REFINE_RADIUS * (H W /
+    REFINE_REFERENCE_PIXELS) ** 0.25)``: 4 on aloe (1282 x 1110), 6 at 2964 x 2000.
+
+    A fixed 7 x 7 window covers 16 times less of the scene at four times the resolution;
+    on motorcycle upsampled to 2964 x 2000 its ZNCC peak is too flat to fix the disparity
+    to 1 px (precision at 1 px 0.894 with 3, 0.929 with 6, 0.932 with 8), while on
+    motorcycle itself 4 already loses (docs/parameters.md, "Refinement window and image
+    size")."""
+    pixels = float(shape[0]) * float(shape[1])
+    return max(REFINE_RADIUS,
+               int(np.floor(REFINE_RADIUS * (pixels / REFINE_REFERENCE_PIXELS) ** 0.25 + 0.5)))
 
 
 def warm_up_beyond_network() -> None:
@@ -451,12 +478,14 @@ def unrectified_beyond_network(result: StereoMatchResult, frame) -> StereoMatchR
     """:func:`beyond_network` (the guided pass and the refinement) on an unrectified pair
     searched along the rows of its aligned images: run in the canvas of
     :func:`~hopmatch.matching.unrectified.shared_frame`, where the pair is a rectified
-    one of one size, and every new or moved right point mapped back into the right
-    image (the inverse of the alignment)."""
+    one of one size (its refinement window that of the left image's size, not the
+    canvas's), and every new or moved right point mapped back into the right image (the
+    inverse of the alignment)."""
     pts_l, pts_r = result.points_left, result.points_right
     fl, fr, grays, grads, (_, b) = shared_frame(frame, pts_l, frame.right_points)
     out = beyond_network(dataclasses.replace(result, points_left=fl, points_right=fr),
-                         frame.descriptors, grads, grays, result.network.config)
+                         frame.descriptors, grads, grays, result.network.config,
+                         image_shape=np.shape(frame.grays[0])[:2])
     if out.points_right is fr:
         return dataclasses.replace(out, points_left=pts_l, points_right=pts_r)
     n = len(fr)

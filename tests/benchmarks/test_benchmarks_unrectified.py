@@ -31,5 +31,8 @@ def test_unrectified_smoke(shared_data):
     assert re.search(r"^All pairs, undistorted: match_stereo \d+ of \d+", out, re.M)
     assert re.search(r"^## Large pair: motorcycle upsampled to 1000 x 675", out, re.M)
     assert re.search(r"^precision: 0\.\d+ at 1 px, 0\.\d+ at 2 px", out, re.M)
+    assert re.search(r"^precision at 1 px by ground truth: flat [\d.]+ of \d+; slanted "
+                     r"(?:[\d.]+|nan) of \d+; edge (?:[\d.]+|nan) of \d+; mean error within "
+                     r"2 px [+-][\d.]+ px$", out, re.M)
     assert re.search(r"^\| middlebury/tsukuba \| [\d.]+\.\.[\d.]+ \| 5\.0\.\.14\.0 \| 1\.0000 \|$",
                      out, re.M)

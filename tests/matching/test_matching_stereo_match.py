@@ -1,13 +1,17 @@
-"""match_stereo with ready detector and matcher instances."""
+"""match_stereo with ready detector and matcher instances; the refinement window and the
+image size."""
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
 import hopmatch
 from hopmatch.errors import InvalidArgumentError, InvalidTypeError
-from hopmatch.matching.stereo_match import split_parameters, stereo_pipeline
+from hopmatch.matching import stereo_match
+from hopmatch.matching.refine import REFINE_RADIUS, refine_disparities
+from hopmatch.matching.stereo_match import refine_radius, split_parameters, stereo_pipeline
 
 RNG = np.random.default_rng(1)
 LEFT = (RNG.random((120, 160)) * 255).astype(np.uint8)
@@ -43,3 +47,67 @@ def test_split_parameters_is_the_one_rule():
         split_parameters({"nope": 1}, caller="batch")
     d, m = stereo_pipeline({"nms_size": 5, "theta": 3.0})
     assert d.getNmsSize() == 5 and m.getTheta() == 3.0
+
+
+def test_refine_radius_keeps_7x7_on_the_shared_scenes_and_grows_beyond():
+    assert refine_radius((500, 741)) == REFINE_RADIUS == 3  # motorcycle
+    assert refine_radius((376, 1241)) == 3  # KITTI
+    assert refine_radius((1110, 1282)) == 4  # aloe, full size
+    assert refine_radius((2000, 2964)) == 6  # full-size Middlebury 2014
+    sizes = [(h, int(1.5 * h)) for h in range(100, 4000, 50)]
+    radii = [refine_radius(s) for s in sizes]
+    assert radii == sorted(radii) and radii[0] == 3
+
+
+def _fourier_shift(image, dx):
+    kx = np.fft.fftfreq(image.shape[1])
+    return np.real(np.fft.ifft2(np.fft.fft2(image) * np.exp(-2j * np.pi * kx * dx)[None, :]))
+
+
+def test_the_wider_window_fixes_upsampled_disparities_better():
+    # A texture four times upsampled (as a full-size image of a scene whose detail is
+    # coarser than its pixels), shifted by 1.2 px, with sensor noise on both images: the
+    # 7 x 7 window sees too little of it; the radius the rule gives at 2964 x 2000 sees more.
+    rng = np.random.default_rng(0)
+    n = 96
+    base = rng.random((n, n)) * 255
+
+    def up(a):
+        big = cv2.resize(a.astype(np.float32), (4 * n, 4 * n), interpolation=cv2.INTER_CUBIC)
+        return big + rng.normal(0, 3, big.shape).astype(np.float32)
+
+    left, right = up(base), up(_fourier_shift(base, -0.3))
+    ys, xs = np.mgrid[40:4 * n - 40:9, 40:4 * n - 40:9]
+    pts = np.c_[xs.ravel(), ys.ravel()].astype(np.float64) + 0.37
+    start = pts[:, 0] - 1.2 + rng.uniform(-0.8, 0.8, len(pts))
+    errors = {}
+    for radius in (REFINE_RADIUS, refine_radius((2000, 2964))):
+        r = refine_disparities(left, right, pts, start, pts[:, 1], radius=radius)
+        assert r.ok.mean() > 0.9
+        errors[radius] = float(np.median(np.abs(pts[r.ok, 0] - r.x[r.ok] - 1.2)))
+    assert errors[6] < 0.75 * errors[3], errors
+
+
+def test_match_stereo_refines_with_the_radius_of_its_image_size(monkeypatch):
+    seen = []
+
+    def spy(*args, radius, **kwargs):
+        seen.append(radius)
+        return refine_disparities(*args, radius=radius, **kwargs)
+
+    monkeypatch.setattr(stereo_match, "refine_disparities", spy)
+    rng = np.random.default_rng(2)
+    big = cv2.resize((rng.random((250, 250)) * 255).astype(np.float32), (1000, 1000),
+                     interpolation=cv2.INTER_CUBIC)
+    big = np.clip(big, 0, 255).astype(np.uint8)
+    mask = np.zeros(big.shape, np.uint8)
+    mask[400:600, 400:600] = 1  # detect in a small part only: the images stay 1 Mpixel
+    res = hopmatch.match_stereo(big, np.roll(big, -8, axis=1), mask_left=mask,
+                                mask_right=np.roll(mask, -8, axis=1), max_disparity=16)
+    assert seen == [refine_radius(big.shape)] == [4]
+    assert res.refinement is not None and res.refinement.ok.mean() > 0.8
+    good = res.refinement.ok
+    assert np.median(np.abs(res.disparities[good] - 8.0)) < 0.1
+    seen.clear()
+    hopmatch.match_stereo(LEFT, RIGHT, max_disparity=12)
+    assert seen == [REFINE_RADIUS]

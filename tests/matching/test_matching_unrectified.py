@@ -157,3 +157,21 @@ def test_sharpness_is_equalised_by_blurring_the_sharper_image():
     assert s_l > 0 and s_r == 0 and right is soft
     left, right, sigmas = u.equalise_sharpness(img, img.copy(), where)
     assert sigmas == (0.0, 0.0) and left is img
+
+
+def test_the_refinement_window_follows_the_given_images_not_the_canvas(monkeypatch):
+    # the aligned pair is refined in a canvas wider than the images by the range's shift;
+    # the window is that of the left image's size (stereo_match.refine_radius)
+    from hopmatch.matching import stereo_match
+
+    shapes = []
+
+    def spy(shape):
+        shapes.append(tuple(int(v) for v in shape))
+        return 3
+
+    monkeypatch.setattr(stereo_match, "refine_radius", spy)
+    left, _, warped, _, _ = perturbed_box_pair(5.0, 30.0, 1.03)
+    res = hopmatch.match_stereo(left, warped, rectified=False)
+    assert res.geometry.search == "aligned" and res.refinement is not None
+    assert shapes == [left.shape[:2]]
