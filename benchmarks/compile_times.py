@@ -6,11 +6,13 @@ Run: ``python benchmarks/compile_times.py [--first] [--top 25]``
 A fresh interpreter with ``NUMBA_CACHE_DIR`` pointing at a new empty folder runs
 ``hopmatch.warmup()`` (``--first``: the first ``match_stereo`` on motorcycle instead, what a
 new user waits) and listens to Numba's events: ``"numba:compile"`` (one per specialisation
-compiled, never on a cache load) and ``"numba:run_pass"`` (each compiler pass). Times are CPU
-seconds of the interpreter (``time.process_time``: steadier than wall time on a loaded
-machine), a kernel's (or a pass's) own, without the kernels compiled inside it. Kernels compiled for
-more than one signature are listed with their signatures: each costs a full compilation.
-Then a second interpreter on the filled cache times the same call (the cache load).
+compiled, never on a cache load) and ``"numba:run_pass"`` (each compiler pass). Times are
+CPU seconds of the interpreter (``time.process_time``: steadier than wall time on a loaded
+machine), a kernel's (or a pass's) own, without the kernels compiled inside it. Kernels
+compiled for more than one signature are listed with their signatures: each costs a full
+compilation. Then a second interpreter on the filled cache times the same call (the cache
+load). To compare two versions on a shared machine, run both at the same time (same load)
+and compare the CPU seconds.
 
 ``--smoke`` uses Numba's default cache (figures meaningless, nothing may compile): a check
 that the script works.
