@@ -8,7 +8,10 @@ import re
 import subprocess
 import sys
 import textwrap
+from collections import Counter
 from pathlib import Path
+
+import pytest
 
 import hopmatch
 
@@ -16,13 +19,27 @@ PACKAGE = Path(hopmatch.__file__).resolve().parent
 
 CHECK = textwrap.dedent("""
     import importlib, json, sys
+    from numba.core import event
+    compiled = []
+
+
+    class Seen(event.Listener):  # every specialisation Numba compiles
+        def on_start(self, ev):
+            f = ev.data["dispatcher"].py_func
+            compiled.append(f"{f.__module__}.{f.__qualname__}")
+
+        def on_end(self, ev):
+            pass
+
+
+    event.register("numba:compile", Seen())
     import hopmatch
     hopmatch.warmup()
     out = {}
     for module, name in json.loads(sys.argv[1]):
         kernel = getattr(importlib.import_module(module), name)
         out[f"{module}.{name}"] = len(kernel.signatures)
-    print(json.dumps(out))
+    print(json.dumps({"signatures": out, "compiled": compiled}))
 """)
 
 
@@ -40,13 +57,35 @@ def kernels_called_from_python() -> list[tuple[str, str]]:
     return sorted(found)
 
 
-def test_warmup_compiles_every_kernel_the_library_calls(tmp_path):
+@pytest.fixture(scope="module")
+def cold_warmup(tmp_path_factory):
+    """What a cold ``hopmatch.warmup()`` compiles (cache off), in a fresh interpreter: the
+    signatures of every kernel the library calls and every specialisation compiled."""
     kernels = kernels_called_from_python()
     assert len(kernels) >= 15          # the scan itself works
     env = {**os.environ, "HOPMATCH_NUMBA_CACHE": "0",
-           "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+           "NUMBA_CACHE_DIR": str(tmp_path_factory.mktemp("cache"))}
     proc = subprocess.run([sys.executable, "-c", CHECK, json.dumps(kernels)],
                           capture_output=True, text=True, env=env, timeout=900)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    compiled = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert [name for name, n in compiled.items() if n == 0] == []
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def test_warmup_compiles_every_kernel_the_library_calls(cold_warmup):
+    assert [name for name, n in cold_warmup["signatures"].items() if n == 0] == []
+
+
+def test_warmup_compiles_each_kernel_once_and_none_of_numbas_costly_extras(cold_warmup):
+    """Compile time (issue 17, ``benchmarks/compile_times.py``): every specialisation costs a
+    full compilation, so each of hopmatch's kernels is compiled for one signature (a
+    literal ``0`` passed where an int64 also arrives compiles a kernel twice), NumPy's sort
+    for one (the kernels sort int64 keys only), and nothing compiles Numba's string
+    functions (the error message of a slice assignment's shape check costs seconds)."""
+    compiled = cold_warmup["compiled"]
+    ours = Counter(name for name in compiled if name.startswith("hopmatch."))
+    assert len(ours) >= 30                                   # the events were seen
+    # the binary searches serve int64 rows and float32 x alike (inlined: no entry of their own)
+    assert {name: n for name, n in ours.items() if n > 1} == {}
+    sorts = Counter(name for name in compiled if name.startswith("numba.misc.quicksort."))
+    assert sorts and max(sorts.values()) == 1, sorts
+    assert [name for name in compiled if name.startswith("numba.cpython.unicode.")] == []

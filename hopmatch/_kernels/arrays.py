@@ -8,7 +8,7 @@ import numpy as np
 from .._config import jit
 
 
-@jit
+@jit(inline=True)
 def lower_bound(a, lo, hi, value):
     """First index t in [lo, hi) with ``a[t] >= value`` (``hi`` if none); ``a`` sorted."""
     while lo < hi:
@@ -20,7 +20,7 @@ def lower_bound(a, lo, hi, value):
     return lo
 
 
-@jit
+@jit(inline=True)
 def upper_bound(a, lo, hi, value):
     """First index t in [lo, hi) with ``a[t] > value`` (``hi`` if none); ``a`` sorted."""
     while lo < hi:

@@ -22,7 +22,7 @@ from .similarity import contrast_admits, similarity_norm
 SHORT_RUN = 32
 
 
-@jit
+@jit(inline=True)
 def point_rows(points):
     """``floor(y)`` of every (x, y) point as int64, and the smallest and largest of them."""
     n = points.shape[0]
@@ -79,7 +79,7 @@ def band_index(points, max_span):
 
     Rows by :func:`row_order`; within a row, one unique int64 key per point, the float32 x
     made monotonic as an unsigned 32-bit number above the 31-bit index (indices < 2**31),
-    sorted by insertion (short rows) or ``np.sort``.
+    sorted by insertion (short rows) or NumPy's sort.
     """
     n = points.shape[0]
     order, point_row = row_order(points, max_span)
@@ -104,7 +104,8 @@ def band_index(points, max_span):
         row_start[nrows] = lo
         nrows += 1
         if hi - lo > SHORT_RUN:  # distinct keys: any sort will do
-            ordered = np.sort(key[lo:hi])
+            ordered = key[lo:hi].copy()
+            ordered.sort()  # the one sort of the kernels (int64, in place): compiled once
             for t in range(hi - lo):
                 key[lo + t] = ordered[t]
         else:
@@ -227,9 +228,10 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
     cap = min(max_neurons, 8 * left.shape[0] + 1024)
     ni = np.empty(cap, dtype=np.int32)
     nk = np.empty(cap, dtype=np.int32)
-    q = 0  # left points searched (in visit order)
-    p = 0  # pairs written
-    n = 0  # pairs in the band
+    # int64, not the literal 0: Numba would compile _band_scan for both types
+    q = np.int64(0)  # left points searched (in visit order)
+    p = np.int64(0)  # pairs written
+    n = np.int64(0)  # pairs in the band
     while q < visit.shape[0]:
         q, p, n = _band_scan(left, visit, q, row_values, table, x0, inv, nb, order, rx, ry,
                              dmin, dmax, vmax, scale_l, scale_r_sorted, gate, eps, gain_tol,
@@ -322,11 +324,12 @@ def _band_scan(left, visit, q0, row_values, table, x0, inv, nb, order, rx, ry, d
     return visit.shape[0], p, n
 
 
-@jit
+@jit(inline=True)
 def _window_query(ys_sorted, y_lo, y_hi):
-    """[a, b) range of a sorted array with y_lo <= y <= y_hi."""
-    a = np.searchsorted(ys_sorted, y_lo, side="left")
-    b = np.searchsorted(ys_sorted, y_hi, side="right")
+    """[a, b) range of a sorted array with y_lo <= y <= y_hi (``np.searchsorted`` left and
+    right, by the binary searches the band search compiles anyway)."""
+    a = lower_bound(ys_sorted, 0, ys_sorted.shape[0], y_lo)
+    b = upper_bound(ys_sorted, a, ys_sorted.shape[0], y_hi)
     return a, b
 
 
@@ -356,7 +359,7 @@ def epipolar_candidates(left, right, order_x, rx_sorted, f, dmin, dmax, vmax, ma
     cap = min(max_neurons, 8 * left.shape[0] + 1024)
     ni = np.empty(cap, dtype=np.int32)
     nk = np.empty(cap, dtype=np.int32)
-    p = 0
+    p = np.int64(0)  # not the literal 0: grown() would compile twice
     for i in range(left.shape[0]):
         xl = np.float64(left[i, 0])
         yl = np.float64(left[i, 1])
@@ -413,8 +416,8 @@ def group_by_left(ni, nk, values, n_left, gated, limit):
 @jit
 def sort_groups(ni, nk, values):
     """Sort, in place, each run of equal ``ni`` by ``nk`` (by insertion when the run is
-    short, else ``np.argsort``), permuting ``values`` alike: candidate pairs grouped by left
-    point become sorted by (i, k)."""
+    short, else by sorting int64 keys, ``nk`` above the offset in the run), permuting
+    ``values`` alike: candidate pairs grouped by left point become sorted by (i, k)."""
     n = ni.shape[0]
     lo = 0
     while lo < n:
@@ -422,10 +425,18 @@ def sort_groups(ni, nk, values):
         while hi < n and ni[hi] == ni[lo]:
             hi += 1
         if hi - lo > SHORT_RUN:  # the keys of a run are distinct: any sort will do
-            perm = np.argsort(nk[lo:hi]) + lo
-            keys = nk[perm]
-            vals = values[perm]
-            for t in range(hi - lo):
+            m = hi - lo
+            order = np.empty(m, dtype=np.int64)  # k above the 31-bit offset in the run
+            for t in range(m):
+                order[t] = (np.int64(nk[lo + t]) << 31) | t
+            order.sort()  # the sort of row_order and band_index: compiled once
+            keys = np.empty(m, dtype=nk.dtype)
+            vals = np.empty(m, dtype=values.dtype)
+            for t in range(m):
+                u = lo + (order[t] & (2**31 - 1))
+                keys[t] = nk[u]
+                vals[t] = values[u]
+            for t in range(m):
                 nk[lo + t] = keys[t]
                 values[lo + t] = vals[t]
             lo = hi

@@ -58,7 +58,8 @@ def query_neighbours(queries, matched, half_w, half_h):
             if p + (b - a) > cap:
                 cap = max(2 * cap, p + (b - a))
                 grown = np.empty(cap, dtype=np.int32)
-                grown[:p] = idx[:p]
+                for u in range(p):  # an element loop: a slice assignment compiles a shape
+                    grown[u] = idx[u]  # check whose error message costs seconds to compile
                 idx = grown
             for t in range(a, b):
                 idx[p] = members[t]

@@ -116,7 +116,7 @@ def moravec_response(g, factor, radius, scale):
     return out
 
 
-@jit(exact=True)
+@jit(exact=True, inline=True)
 def parabola_offset(lo, c, hi):
     """Sub-pixel offset of a maximum (eq. 2's points refined): the vertex of the parabola
     through (-1, lo), (0, c), (1, hi), in float64; 0 unless the parabola opens downwards,

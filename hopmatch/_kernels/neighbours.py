@@ -43,11 +43,26 @@ def cell_buckets(points, half_w, half_h):
     The one grid of :func:`neighbour_lists` and of the guided pass's query lists.
     """
     n = points.shape[0]
-    xmin = np.float64(points[:, 0].min())
-    ymin = np.float64(points[:, 1].min())
-    span_x = np.float64(points[:, 0].max()) - xmin
-    span_y = np.float64(points[:, 1].max()) - ymin
-    cw, ch = cell_size(half_w, half_h)
+    # the extremes by a loop, NaN propagating as in NumPy's min and max (whose compiled
+    # implementations cost more than this kernel)
+    x_lo = x_hi = points[0, 0]
+    y_lo = y_hi = points[0, 1]
+    for i in range(1, n):
+        x = points[i, 0]
+        y = points[i, 1]
+        if x < x_lo or x != x:
+            x_lo = x
+        if x > x_hi or x != x:
+            x_hi = x
+        if y < y_lo or y != y:
+            y_lo = y
+        if y > y_hi or y != y:
+            y_hi = y
+    xmin = np.float64(x_lo)
+    ymin = np.float64(y_lo)
+    span_x = np.float64(x_hi) - xmin
+    span_y = np.float64(y_hi) - ymin
+    cw, ch = cell_size(np.float64(half_w), np.float64(half_h))  # one specialisation
     ncx = int(span_x / cw) + 1
     ncy = int(span_y / ch) + 1
     while ncx * ncy > 4 * n + 64:
@@ -100,7 +115,7 @@ def neighbour_lists(points, half_w, half_h):
         points, half_w, half_h)
     cap = 16 * n + 1024
     indices = np.empty(cap, dtype=np.int32)
-    p = 0
+    p = np.int64(0)  # not the literal 0: grown() would compile twice
     for i in range(n):  # one pass; the output grows by doubling
         cx0 = cell[i] % ncx
         cy0 = cell[i] // ncx

@@ -15,7 +15,7 @@ from .._config import jit
 from .neighbours import transposed_lists
 
 
-@jit
+@jit(inline=True)
 def splitmix64(state):
     """One step of SplitMix64: returns (new state, random 64-bit value)."""
     state = state + np.uint64(0x9E3779B97F4A7C15)
@@ -25,7 +25,7 @@ def splitmix64(state):
     return state, z ^ (z >> np.uint64(31))
 
 
-@jit
+@jit(inline=True)
 def shuffle(perm, state):
     """Fisher-Yates shuffle of ``perm`` in place with SplitMix64; returns the new state."""
     for a in range(perm.shape[0] - 1, 0, -1):

@@ -14,14 +14,14 @@ import numpy as np
 from .._config import jit
 
 
-@jit
+@jit(inline=True)
 def similarity_norm(s_i, s_k, eps):
     """The normalisation of eq. 7's ``M_ik`` by the window contrasts ``s_i, s_k``
     (``mean |V|``): ``0.5 (s_i + s_k) + eps``."""
     return 0.5 * (s_i + s_k) + eps
 
 
-@jit
+@jit(inline=True)
 def gain_within(s_i, s_k, gain_tol):
     """The relative gain ``g`` by which eq. 7 scales the right window before comparing it
     with the left one: ``s_i / s_k`` clipped to ``[1 / gain_tol, gain_tol]`` (1 when
@@ -31,7 +31,7 @@ def gain_within(s_i, s_k, gain_tol):
     return min(max(s_i / s_k, 1.0 / gain_tol), gain_tol)
 
 
-@jit
+@jit(inline=True)
 def contrast_admits(s_i, s_k, norm, gate, gain_tol):
     """Whether the window contrasts ``s_i, s_k`` leave the pair within the similarity
     ``gate`` (``norm`` = :func:`similarity_norm`): ``|s_i - g s_k|`` (``g`` =
@@ -90,7 +90,7 @@ def normalised_difference(desc_l, desc_r, ni, nk, scale_l, scale_r, eps, gate, g
     return out
 
 
-@jit
+@jit(inline=True)
 def zero_mean(a, rel_tol, abs_tol):
     """Whether the row ``a`` has ``|mean| <= rel_tol * mean |x| + abs_tol`` (float64 sums):
     the zero-mean test of windows (eqs. 8-9)."""

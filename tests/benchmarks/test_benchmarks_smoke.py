@@ -215,6 +215,17 @@ def test_memory_smoke():
     )
 
 
+def test_compile_times_smoke():
+    """The per-kernel compile-time tables issue 17's work quotes (benchmarks/compile_times.py)."""
+    out = run_script("compile_times.py")
+    assert_lines(
+        out,
+        r"## Cold warmup\(\): [\d.]+ s wall, [\d.]+ s CPU .*warm cache: [\d.]+ s wall.*",
+        r"\| kernel \| signatures \| s \| share \|",
+        r"### Compiler passes \([\d.]+ s in all, own time\)",
+    )
+
+
 def test_quality_smoke():
     """The table of docs/results.md, one row per method of hopmatch.compare."""
     from hopmatch.compare import METHODS
