@@ -32,6 +32,9 @@ SLANT_MIN_RADIUS = 3
 #: First sample spacing and levels of the second stage (it starts at the first's peak).
 SLANT_STEP = 0.25
 SLANT_LEVELS = 1
+#: Cubic (Keys) interpolation in the second stage (False: linear, as the first).
+SLANT_CUBIC = True
+SLANT_PASSES = 1
 #: Standard deviation (px) of the Gaussian weights of the second stage's windows.
 SLANT_SIGMA = 3.0
 #: Half-side (px) of the square around a match whose matches give its disparity plane.
@@ -142,10 +145,10 @@ def refine_disparities(gray_l, gray_r, left, xr, yr, *, radius: int = REFINE_RAD
 
     flat = np.zeros(len(xr))
     x, ok, peak, curv = stage(xr, flat, flat, radius, radius, 0.0, False, step, levels)
-    if slanted and len(x):
+    for _ in range(SLANT_PASSES if slanted and len(x) else 0):
         gx, gy = disparity_gradients(left, left[:, 0] - x)
-        x2, ok2, _, _ = stage(x, gx, gy, SLANT_RADIUS, SLANT_MIN_RADIUS, SLANT_SIGMA, True,
-                              SLANT_STEP, SLANT_LEVELS)
+        x2, ok2, _, _ = stage(x, gx, gy, SLANT_RADIUS, SLANT_MIN_RADIUS, SLANT_SIGMA,
+                              SLANT_CUBIC, SLANT_STEP, SLANT_LEVELS)
         x = np.where(ok2, x2, x)
         ok = ok | ok2
     return Refinement(x, ok, peak, curv)
