@@ -1,7 +1,7 @@
 """What each part of the sub-pixel refinement brings: the median |disparity error| of the
 correct matches on the float ground truth (issue 21), refinement variant by variant.
 
-Run: ``python benchmarks/refine_stages.py [--scenes NAME ...] [--smoke]``
+Run: ``python benchmarks/refine_stages.py [--scenes NAME ...] [--timing N] [--smoke]``
 
 For each scene (default: motorcycle and the three ``middlebury2014/`` scenes, with
 ``../shared/data`` or ``HOPMATCH_SHARED_DATA``), ``match_stereo``'s defaults are run once
@@ -16,7 +16,10 @@ It also prints, per scene, the median after removing from the errors the least-s
 ``e = a + b x + c y`` over the correct matches: a diagnostic that separates the refinement's
 own scatter from an image-wide trend of the error (the last line: how much that plane
 changes across the image width; on Teddy about 0.3 px, which no local estimate can see),
-never a figure to tune on. ``--smoke``: the built-in motorcycle on a centre crop.
+never a figure to tune on. ``--timing N``: also, per scene, the best of N interleaved runs
+(single thread) of the refinement with the first stage only and with both, and of
+``match_stereo`` with the second stage off (``SLANT_PASSES = 0``) and on. ``--smoke``: the
+built-in motorcycle on a centre crop.
 """
 
 from __future__ import annotations
@@ -28,7 +31,12 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import add_smoke_option, single_thread, smoke_scene  # noqa: E402
+from _common import (  # noqa: E402
+    add_smoke_option,
+    best_times_interleaved,
+    single_thread,
+    smoke_scene,
+)
 from passes import bilinear_gt, score  # noqa: E402
 
 import hopmatch  # noqa: E402
@@ -52,6 +60,9 @@ VARIANTS = [
     ("second stage, planes in 21x21", True, {"SLANT_HALF_WINDOW": 10.0}),
     ("second stage, planes in 41x41", True, {"SLANT_HALF_WINDOW": 20.0}),
     ("second stage, sigma 2", True, {"SLANT_SIGMA": 2.0}),
+    ("second stage, 9x9 sigma 2.5", True, {"SLANT_RADIUS": 4, "SLANT_SIGMA": 2.5}),
+    ("second stage, tolerance 0.02 px", True, {"SLANT_TOL": 0.02}),
+    ("second stage, tolerance 0.05 px", True, {"SLANT_TOL": 0.05}),
     ("second stage, 13x13 sigma 3.5", True, {"SLANT_RADIUS": 6, "SLANT_SIGMA": 3.5}),
 ]
 
@@ -91,10 +102,11 @@ def errors(left, x, yr, disparity):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", nargs="*", help="scene names (default: the four of issue 21)")
+    ap.add_argument("--timing", type=int, default=0, help="timing rounds (0: no timing)")
     args = add_smoke_option(ap).parse_args(argv)
     single_thread()
     names = ["motorcycle"] if args.smoke else (args.scenes or SCENES)
-    inputs = {}
+    inputs, scenes = {}, {}
     for n in names:
         scene = datasets.load(n)
         if args.smoke:
@@ -102,6 +114,7 @@ def main(argv=None) -> int:
         got = refinement_inputs(scene)
         if got is not None:
             inputs[n] = (got, scene.disparity)
+            scenes[n] = scene
     print("median |disparity error| of the correct matches (px), per scene; correct matches "
           "in all")
     print("| variant | " + " | ".join(inputs) + " | correct |")
@@ -134,7 +147,39 @@ def main(argv=None) -> int:
     label = VARIANTS[1][0]
     print(f"drift of the errors' plane across the image width (px), {label}: "
           + ", ".join(f"{n} {d}" for n, d in zip(inputs, drift[label])))
+    if args.timing > 0:
+        print_timing(inputs, scenes, args.timing)
     return 0
+
+
+def print_timing(inputs, scenes, rounds: int) -> None:
+    """The ``--timing`` table: best of ``rounds`` interleaved runs, in ms."""
+
+    def stereo(scene, passes):
+        def run():
+            saved = refine_mod.SLANT_PASSES
+            refine_mod.SLANT_PASSES = passes
+            try:
+                hopmatch.match_stereo(scene.left, scene.right)
+            finally:
+                refine_mod.SLANT_PASSES = saved
+        return run
+
+    print()
+    print(f"ms, best of {rounds} interleaved runs, one thread")
+    print("| scene | matches | refinement, first stage | refinement, both | match_stereo, "
+          "first stage | match_stereo, both |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for n, ((gl, gr, left, xr, yr), _) in inputs.items():
+        fns = {
+            "r1": lambda: refine_mod.refine_disparities(gl, gr, left, xr, yr, slanted=False),
+            "r2": lambda: refine_mod.refine_disparities(gl, gr, left, xr, yr),
+            "s1": stereo(scenes[n], 0),
+            "s2": stereo(scenes[n], refine_mod.SLANT_PASSES),
+        }
+        t = best_times_interleaved(fns, repeat=rounds)
+        print(f"| {n} | {len(xr)} | " + " | ".join(f"{1000 * t[k]:.0f}" for k in fns) + " |",
+              flush=True)
 
 
 if __name__ == "__main__":

@@ -32,6 +32,7 @@ SLANT_MIN_RADIUS = 3
 #: First sample spacing and levels of the second stage (it starts at the first's peak).
 SLANT_STEP = 0.25
 SLANT_LEVELS = 1
+SLANT_TOL = 0.1
 #: Cubic (Keys) interpolation in the second stage (False: linear, as the first).
 SLANT_CUBIC = True
 SLANT_PASSES = 1
@@ -135,20 +136,20 @@ def refine_disparities(gray_l, gray_r, left, xr, yr, *, radius: int = REFINE_RAD
                          f"{len(left)}, {len(xr)} and {len(yr)}")
     img_l, img_r = as_float_image(gray_l), as_float_image(gray_r)
 
-    def stage(start, gx, gy, rad, min_rad, sigma, cubic, h, n_levels):
+    def stage(start, gx, gy, rad, min_rad, sigma, cubic, h, n_levels, eps):
         return map_chunks(
             lambda ls, xs, ys, gxs, gys: _k.refine_rows(
                 img_l, img_r, ls, xs, ys, gxs, gys, int(rad), int(min_rad), float(sigma),
-                bool(cubic), float(h), int(n_levels), int(iterations), float(tol),
+                bool(cubic), float(h), int(n_levels), int(iterations), float(eps),
                 float(max_shift)),
             (left, start, yr, gx, gy), threads)
 
     flat = np.zeros(len(xr))
-    x, ok, peak, curv = stage(xr, flat, flat, radius, radius, 0.0, False, step, levels)
+    x, ok, peak, curv = stage(xr, flat, flat, radius, radius, 0.0, False, step, levels, tol)
     for _ in range(SLANT_PASSES if slanted and len(x) else 0):
         gx, gy = disparity_gradients(left, left[:, 0] - x)
         x2, ok2, _, _ = stage(x, gx, gy, SLANT_RADIUS, SLANT_MIN_RADIUS, SLANT_SIGMA,
-                              SLANT_CUBIC, SLANT_STEP, SLANT_LEVELS)
+                              SLANT_CUBIC, SLANT_STEP, SLANT_LEVELS, SLANT_TOL)
         x = np.where(ok2, x2, x)
         ok = ok | ok2
     return Refinement(x, ok, peak, curv)
