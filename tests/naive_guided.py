@@ -162,3 +162,63 @@ def refine_one(img_l, img_r, xl, yl, xr, yr, radius, step, levels, iterations, t
             return xr, False
         h /= 2
     return x, True
+
+
+def keys_cubic(g, x, y, a=-0.5):
+    """g at the fractional (x, y) by Keys' cubic convolution (parameter a) on the 4 x 4
+    pixels around it, in float64."""
+    def weights(t):
+        return [a * (t**3 - 2 * t**2 + t), (a + 2) * t**3 - (a + 3) * t**2 + 1,
+                -(a + 2) * t**3 + (2 * a + 3) * t**2 - a * t, -a * (t**3 - t**2)]
+    x0, y0 = math.floor(x), math.floor(y)
+    wx, wy = weights(x - x0), weights(y - y0)
+    g = g.astype(np.float64)
+    return sum(wy[j] * wx[i] * g[y0 - 1 + j, x0 - 1 + i] for j in range(4) for i in range(4))
+
+
+def weighted_zncc(a, b, w):
+    """ZNCC of two windows with weights w: the weighted means removed, then
+    ``sum w a b / sqrt(sum w a**2 sum w b**2)``."""
+    a, b, w = (np.asarray(v, np.float64) for v in (a, b, w))
+    a = a - (w @ a) / w.sum()
+    b = b - (w @ b) / w.sum()
+    return float((w * a) @ b) / math.sqrt(float((w * a) @ a) * float((w * b) @ b))
+
+
+def refine_one_slanted(img_l, img_r, xl, yl, xr, yr, gx, gy, radius, sigma, cubic, step,
+                       levels, iterations, tol, max_shift):
+    """The refinement of one match as ``hopmatch._kernels.refine.refine_rows`` documents it
+    for a window of half-side ``radius`` that fits the images, Gaussian weights of
+    ``sigma`` (uniform for 0), linear or cubic interpolation, and the right window on the
+    disparity plane of gradient (gx, gy): ``(x, ok)``."""
+    sample = keys_cubic if cubic else bilinear
+    offs = [(c, r) for r in range(-radius, radius + 1) for c in range(-radius, radius + 1)]
+    w = np.array([1.0 if sigma <= 0 else math.exp(-(c * c + r * r) / (2 * sigma * sigma))
+                  for c, r in offs])
+    a = [sample(img_l, xl + c, yl + r) for c, r in offs]
+
+    def z(x):
+        return weighted_zncc(a, [sample(img_r, x + c * (1 - gx) - r * gy, yr + r)
+                                 for c, r in offs], w)
+
+    x, h, moves = xr, step, 0
+    for _ in range(levels):
+        done = False
+        while moves < iterations:
+            zm, z0, zp = z(x - h), z(x), z(x + h)
+            den = zm - 2 * z0 + zp
+            if zm > z0 or zp > z0 or den >= 0:
+                move = h if zp > zm else -h
+            else:
+                move = h * min(max(0.5 * (zm - zp) / den, -1.0), 1.0)
+            x += move
+            moves += 1
+            if abs(move) < tol:
+                done = True
+                break
+            if abs(x - xr) > max_shift:
+                break
+        if not done or abs(x - xr) > max_shift:
+            return xr, False
+        h /= 2
+    return x, True

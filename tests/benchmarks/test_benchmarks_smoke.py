@@ -319,3 +319,20 @@ def test_fingerprint_smoke():
     assert len(lines) == len(expected), out
     for pattern, line in zip(expected, lines):
         assert re.fullmatch(pattern, line), f"{line!r} does not match {pattern!r}"
+
+
+def test_refine_stages_smoke():
+    """docs/parameters.md quotes its variant rows (the ablation of the refinement's second
+    stage, issue 21) and its drift line."""
+    out = run_script("refine_stages.py")
+    labels = [r"first stage only \(7x7 square, linear\)", r"defaults \(both stages\)",
+              "second stage with square windows", "second stage with uniform weights",
+              "second stage with linear interpolation", "second stage with 7x7 windows"]
+    assert_lines(
+        out,
+        r"\| variant \| motorcycle \| correct \|",
+        *[table_row(label, NUM, r"\d+") for label in labels],
+        *[table_row(label, NUM) for label in labels],
+        rf"drift of the errors' plane across the image width \(px\), defaults \(both "
+        rf"stages\): motorcycle [+-]{NUM[1:]}",
+    )

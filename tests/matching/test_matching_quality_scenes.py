@@ -60,7 +60,8 @@ def test_development_scene_goal(shared_data, name):
 
 def test_subpixel_accuracy_on_the_2014_scenes(shared_data):
     """Median |disparity error| of the correct matches on the float ground truth of the
-    2014 scenes: about 0.18 px before the refinement, about 0.10 px with it."""
+    2014 scenes: about 0.18 px before the refinement, about 0.10 px with its first stage
+    (square windows) and 0.073-0.101 px with both (docs/parameters.md)."""
     medians = {}
     for name in SCENES_2014:
         scene = datasets.load(name, root=shared_data)
@@ -69,5 +70,5 @@ def test_subpixel_accuracy_on_the_2014_scenes(shared_data):
     scene = datasets.load_motorcycle()
     res = hopmatch.match_stereo(scene.left, scene.right)
     medians["motorcycle"] = float(np.median(correct_errors(res, scene.disparity)))
-    assert max(medians.values()) <= 0.12, medians
-    assert np.mean(list(medians.values())) <= 0.105, medians
+    assert max(medians.values()) <= 0.11, medians
+    assert np.mean(list(medians.values())) <= 0.09, medians

@@ -18,7 +18,7 @@ Examples
 >>> left = (rng.random((120, 160)) * 255).astype(np.uint8)
 >>> right = np.roll(left, -6, axis=1)
 >>> ml, mr, d = hopmatch_gapi.match_pair(left, right, max_disparity=12)
->>> float(np.median(d))
+>>> round(float(np.median(d)), 1)
 6.0
 """
 
