@@ -146,20 +146,24 @@ def refine_disparities(gray_l, gray_r, left, xr, yr, *, radius: int = REFINE_RAD
 
     flat = np.zeros(len(xr))
     x, ok, peak, curv = stage(xr, flat, flat, radius, radius, 0.0, False, step, levels, tol)
+    # the second stage's sizes are those of a REFINE_RADIUS first stage, scaled with it
+    # (a larger image: larger windows; docs/parameters.md, "Refinement window and image size")
+    f = radius / REFINE_RADIUS
     for _ in range(SLANT_PASSES if slanted and len(x) else 0):
-        gx, gy = disparity_gradients(left, left[:, 0] - x)
-        x2, ok2, _, _ = stage(x, gx, gy, SLANT_RADIUS, SLANT_MIN_RADIUS, SLANT_SIGMA,
-                              SLANT_CUBIC, SLANT_STEP, SLANT_LEVELS, SLANT_TOL)
+        gx, gy = disparity_gradients(left, left[:, 0] - x, scale=f)
+        x2, ok2, _, _ = stage(x, gx, gy, round(SLANT_RADIUS * f),
+                              max(SLANT_MIN_RADIUS, round(SLANT_MIN_RADIUS * f)),
+                              SLANT_SIGMA * f, SLANT_CUBIC, SLANT_STEP, SLANT_LEVELS, SLANT_TOL)
         x = np.where(ok2, x2, x)
         ok = ok | ok2
     return Refinement(x, ok, peak, curv)
 
 
-def disparity_gradients(left: np.ndarray, disparity: np.ndarray):
+def disparity_gradients(left: np.ndarray, disparity: np.ndarray, scale: float = 1.0):
     """``(gx, gy)``, (M,) float64: at each match, the gradient of the least-squares plane
-    through the disparities of the matches within :data:`SLANT_HALF_WINDOW` px of it
-    (itself included; :func:`hopmatch._kernels.guided.neighbour_planes` with
-    :data:`SLANT_PLANE_INLIER` and :data:`SLANT_PLANE_MIN`), clipped to
+    through the disparities of the matches within ``scale`` x :data:`SLANT_HALF_WINDOW` px
+    of it (itself included; :func:`hopmatch._kernels.guided.neighbour_planes` with
+    ``scale`` x :data:`SLANT_PLANE_INLIER` and :data:`SLANT_PLANE_MIN`), clipped to
     +-:data:`SLANT_GRADIENT_LIMIT`; 0 where there is no plane (or no finite disparity)."""
     left = np.asarray(left, dtype=np.float64).reshape(-1, 2)
     disparity = np.asarray(disparity, dtype=np.float64)
@@ -169,10 +173,10 @@ def disparity_gradients(left: np.ndarray, disparity: np.ndarray):
     if len(good) == 0:
         return gx, gy
     pts = np.ascontiguousarray(left[good], dtype=np.float32)
-    half = np.float32(SLANT_HALF_WINDOW)
+    half = np.float32(SLANT_HALF_WINDOW * scale)
     off, idx = _kg.query_neighbours(pts, pts, half, half)
     _, bx, by = _kg.neighbour_planes(pts, off, idx, pts, np.ascontiguousarray(disparity[good]),
-                                     SLANT_PLANE_INLIER, SLANT_PLANE_MIN)
+                                     SLANT_PLANE_INLIER * scale, SLANT_PLANE_MIN)
     gx[good] = np.clip(bx, -SLANT_GRADIENT_LIMIT, SLANT_GRADIENT_LIMIT)
     gy[good] = np.clip(by, -SLANT_GRADIENT_LIMIT, SLANT_GRADIENT_LIMIT)
     return gx, gy
