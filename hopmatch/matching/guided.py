@@ -248,8 +248,9 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
               matched_similarity, *, min_zncc: float | None = None,
               margin: float | None = None, min_field: float | None = None,
               threads: int | None = None) -> GuidedMatches:
-    """Seeds where the matches do not reach: the left points not in ``query_idx``, each
-    searched along its whole row of the right image (the disparity range ``[min_disparity,
+    """Seeds where the matches do not reach: the left points not in ``query_idx`` with
+    fewer than ``GUIDED_MIN_SUPPORT`` of them in the network's window, each searched
+    along its whole row of the right image (the disparity range ``[min_disparity,
     max_disparity]`` of ``config``, resolved), kept when the best ZNCC is at least
     ``min_zncc``, a local maximum, ahead by ``margin`` of the best one at least two pixels
     away in the range, searching back finds the left point again (:func:`row_search` with

@@ -297,10 +297,11 @@ def test_guided_rounds_propagate_from_earlier_rounds():
 
 
 def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test():
-    """seed_pass: every seed is a left point without a match, found by the row search over
-    the whole disparity range (the reference) and with a field above the seed minimum
-    against the matches and the other seeds (all but itself) as neighbours; far from the
-    few matches left, only the seeds' agreement among themselves can carry them."""
+    """seed_pass: the seeds are the left points without a match and with fewer than 3
+    matches in the network's window whose row search over the whole disparity range (the
+    reference) finds a peak with a field above the seed minimum, the matches and the
+    other such peaks (all but itself) as neighbours; far from the few matches left, only
+    the peaks' agreement among themselves can carry them."""
     left, right = _scene(noise=6.0)
     left, right = left[:64], right[:64]  # fewer points for the slow reference
     det = hopmatch.DericheMoravecDetector()
@@ -325,7 +326,11 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test():
     size = int(round(np.sqrt(dl.shape[1])))
     rad = size // 2
     h, w = gr.shape
-    for i in np.setdiff1d(np.arange(len(pl)), qi):
+    unmatched = np.setdiff1d(np.arange(len(pl)), qi)
+    near = ng.neighbours(pl[unmatched], pl[qi], config.neighbour_width / 2,
+                         config.neighbour_height / 2)
+    assert min(map(len, near)) < 3 <= max(map(len, near))  # both kinds of points
+    for i in unmatched[[len(nb) < 3 for nb in near]]:  # only where no match reaches
         x, y = float(pl[i, 0]), float(pl[i, 1])
         c0 = np.floor(x - 0.5 * (lo + hi) + 0.5)
         if (c0 - outer - 1 - rad < 0 or c0 + outer + rad + 2 > w - 1
