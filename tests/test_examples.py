@@ -169,10 +169,8 @@ def test_stereo_calibration_rectified_matches_meet_the_dy_goal(stereo_calibratio
                                   r"\(vertical_check='multiple', .*\): ([\d.]+)% of")
     # section 4 as written keeps the off-row look-alikes the check of every pair removes:
     # 87.2 % against 96.4 % (OpenCV 4.14), 90.4-91.2 % against 98.3 % (OpenCV 5.0) since
-    # the gain tolerance; 82 % against 97 % before it; 91.0 % of 3331 against 95.9 % of
-    # 3092 (OpenCV 4.14) since the guided pass's grown windows and seeds, whose matches lie
-    # on the fitted row in both modes and so dilute the look-alikes of "multiple"
-    assert paper <= frac - 4.0
+    # the gain tolerance; 82 % against 97 % before it
+    assert paper <= frac - 5.0
     assert res.returncode == 0, res.stderr
 
 

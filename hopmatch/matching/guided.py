@@ -11,7 +11,7 @@ bracket, with eq. 5's compatibility of eq. 10's ``X`` against every matched neig
 each carried along the local plane's disparity gradient so that a slanted surface counts
 as continuous, and the network's input bias). :func:`guided_rounds` repeats the pass,
 propagating from the guided matches too (later rounds with a larger margin, a field above
-1 and, for points with too few matched neighbours, a larger window), then seeds the
+3 and, for points with too few matched neighbours, a larger window), then seeds the
 regions no match reaches (:func:`seed_pass`: a search of the whole disparity range whose
 peaks are kept where they agree with one another) and propagates from those.
 """
@@ -53,7 +53,7 @@ GUIDED_ROUNDS = 3
 GUIDED_LATER_MARGIN = 0.2
 #: Smallest field of the matches of the rounds after the first (the network's test, and
 #: the first round's, is > 0).
-GUIDED_LATER_FIELD = 1.0
+GUIDED_LATER_FIELD = 3.0
 #: Growth of the support window per round: in round r (0-based) a left point with fewer
 #: than ``min_support`` matched neighbours in the network's window is searched with the
 #: window ``(1 + GUIDED_GROWTH) ** r`` times as wide and high (0: the network's window in
