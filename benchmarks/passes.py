@@ -1,7 +1,7 @@
 """Per-scene quality of match_stereo's defaults, pass by pass, against ground truth.
 
 Run: ``python benchmarks/passes.py [--scenes NAME ...] [--perturb NAME ...] [--params JSON]
-[--baselines] [--ranking] [--refine-radius N]``
+[--guided JSON] [--baselines] [--ranking] [--refine-radius N]``
 
 For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
 scene there) it prints: matches, correct@1px and precision@1px
@@ -14,6 +14,9 @@ StereoSGBM sampled at the same left keypoints (``hopmatch.compare``), and the po
 ``--ranking`` adds, per scene and pooled, the precision@1px of the best k % of the matches
 by ``result.distances`` (k = 10, 20, 30, 50, 70, 90, 100; scored matches only), which a
 confidence that ranks keeps (near) non-increasing in k.
+
+``--guided`` sets module constants of :mod:`hopmatch.matching.guided` first (e.g.
+``'{"GUIDED_SEED_ROUNDS": 0}'``), to measure the guided pass's settings one at a time.
 
 ``--perturb`` applies a change to the right image before matching and maps the right
 points back through it before scoring: ``dy0.5`` (shifted down by 0.5 px), ``gain0.7``
@@ -47,6 +50,7 @@ import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
 from hopmatch.compare import METHODS  # noqa: E402
 from hopmatch.evaluate import score_matches  # noqa: E402
+from hopmatch.matching import guided  # noqa: E402
 
 
 def bilinear_gt(points: np.ndarray, disparity: np.ndarray) -> np.ndarray:
@@ -144,6 +148,8 @@ def main(argv=None) -> int:
     ap.add_argument("--scenes", nargs="*", help="scene names (default: all available)")
     ap.add_argument("--perturb", nargs="*", default=[""], help="right-image perturbations")
     ap.add_argument("--params", default="{}", help="match_stereo parameters (JSON object)")
+    ap.add_argument("--guided", default="{}",
+                    help="constants of hopmatch.matching.guided to set (JSON object)")
     ap.add_argument("--baselines", action="store_true", help="also SIFT and SGBM")
     ap.add_argument("--ranking", action="store_true",
                     help="also the precision of the best k %% by distance")
@@ -151,9 +157,14 @@ def main(argv=None) -> int:
     single_thread()
     force_refine_radius(args.refine_radius)
     params = json.loads(args.params)
+    for name, value in json.loads(args.guided).items():
+        if not (name.startswith("GUIDED_") and hasattr(guided, name)):
+            raise SystemExit(f"--guided: hopmatch.matching.guided has no constant {name!r}")
+        setattr(guided, name, value)
     names = args.scenes or datasets.list_scenes()
     for spec in args.perturb:
-        print(f"## perturbation: {spec or 'none'}; params {params or 'defaults'}")
+        print(f"## perturbation: {spec or 'none'}; params {params or 'defaults'}"
+              + (f"; guided {args.guided}" if args.guided != "{}" else ""))
         print("scene | matches | correct | precision | med err | by pass (n/correct/prec/med)"
               " | ms" + (" | SIFT | SGBM" if args.baselines else ""))
         tot = {"m": 0, "c": 0, "s": 0, "sift": 0, "sgbm": 0}

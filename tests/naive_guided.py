@@ -45,17 +45,19 @@ def zncc(a, b):
     return float(a @ b) / den if den > 1e-12 else -1.0
 
 
-def normalised_distance(a, b, eps=1e-6):
-    """Eq. 7 normalised: ``mean |a - b| / (0.5 (mean |a| + mean |b|) + eps)`` of two
-    zero-mean windows."""
+def normalised_distance(a, b, eps=1e-6, gain_tol=1.0):
+    """Eq. 7 normalised: ``mean |a - g b| / (0.5 (mean |a| + mean |b|) + eps)`` of two
+    zero-mean windows, g = ``mean |a| / mean |b|`` clipped to ``[1 / gain_tol,
+    gain_tol]`` (1 when ``gain_tol`` is 1 or b is flat)."""
     a = np.asarray(a, np.float64) - np.mean(a)
     b = np.asarray(b, np.float64) - np.mean(b)
-    return float(np.mean(np.abs(a - b)) / (0.5 * (np.mean(np.abs(a)) + np.mean(np.abs(b)))
-                                           + eps))
+    sa, sb = np.mean(np.abs(a)), np.mean(np.abs(b))
+    g = 1.0 if gain_tol <= 1.0 or not sb > 0 else min(max(sa / sb, 1.0 / gain_tol), gain_tol)
+    return float(np.mean(np.abs(a - g * b)) / (0.5 * (sa + sb) + eps))
 
 
 def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer, back,
-                   min_zncc, margin):
+                   min_zncc, margin, gain_tol=1.0):
     """The row search of one query as ``hopmatch._kernels.guided.row_search`` documents it:
     ``(found, best, second, xr, similarity)``; ``found`` False when any test fails, and
     the values NaN when the search did not reach them."""
@@ -77,7 +79,7 @@ def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer
     delta = min(max(0.5 * (z[mb - 1] - z[mb + 1]) / den, -0.5), 0.5) if den < 0 else 0.0
     xr = cols[mb] + delta
     right = window(g_r, xr, yr, s)
-    sim = normalised_distance(left_window, right)
+    sim = normalised_distance(left_window, right, gain_tol=gain_tol)
     here = zncc(right, left_window)
     for t in range(1, back + 1):
         for sign in (-1, 1):

@@ -9,6 +9,7 @@ import numpy as np
 from .._config import jit
 from .interactions import compatibility
 from .neighbours import cell_buckets
+from .similarity import gain_within
 
 #: Status codes of :func:`row_search` (0 = a peak was found and passed the back search).
 FOUND = 0
@@ -184,7 +185,7 @@ def _zncc_bilinear(a, sa2, g, x, y, s):
 
 @jit
 def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer, back,
-               min_zncc, margin, eps):
+               min_zncc, margin, eps, gain_tol=1.0):
     """The guided search of each query (left point) along its row of the right image.
 
     For query q (left point ``i = queries[q]`` at (xl, yl)), the right row is
@@ -202,8 +203,11 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
 
     Returns ``(status, best, second, xr, similarity)`` per query: the status code
     (:data:`FOUND`...), the best ZNCC, the best ZNCC at least two columns from ``c*``,
-    the refined right x, and eq. 7's normalised distance (``mean |a - b| / (0.5 (mean |a|
-    + mean |b|) + eps)``) between the left window and the right window at (xr, yr).
+    the refined right x, and eq. 7's normalised distance (``mean |a - g b| / (0.5 (mean
+    |a| + mean |b|) + eps)``) between the left window a and the zero-mean right window b
+    at (xr, yr), g the relative gain ``mean |a| / mean |b|`` clipped to ``[1 / gain_tol,
+    gain_tol]`` (:func:`~hopmatch._kernels.similarity.gain_within`, as the network's
+    similarity; 1 when ``gain_tol`` is 1).
     """
     h, w = g_r.shape
     hl, wl = g_l.shape
@@ -289,7 +293,6 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
                 sb += v
         mean_b = sb / n
         sbb = 0.0
-        m_ab = 0.0
         m_a = 0.0
         m_b = 0.0
         for r in range(s):
@@ -297,10 +300,13 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
                 v = rbw[r, c] - mean_b
                 rbw[r, c] = v
                 sbb += v * v
-                av = af[r * s + c]
-                m_ab += abs(av - v)
-                m_a += abs(av)
+                m_a += abs(af[r * s + c])
                 m_b += abs(v)
+        g = gain_within(m_a / n, m_b / n, gain_tol)
+        m_ab = 0.0
+        for r in range(s):
+            for c in range(s):
+                m_ab += abs(af[r * s + c] - g * rbw[r, c])
         sim[q] = (m_ab / n) / (0.5 * (m_a / n + m_b / n) + eps)
         # back search: the right window against the left windows at xl + t, |t| <= back
         # (t = 0 is the left window itself, whose ZNCC is symmetric)

@@ -10,7 +10,10 @@ and the pair, alone in its row and column, would have a positive local field (eq
 bracket, with eq. 5's compatibility of eq. 10's ``X`` against every matched neighbour,
 each carried along the local plane's disparity gradient so that a slanted surface counts
 as continuous, and the network's input bias). :func:`guided_rounds` repeats the pass,
-propagating from the guided matches too.
+propagating from the guided matches too (later rounds with a larger margin, a field above
+3 and, for points with too few matched neighbours, a larger window), then seeds the
+regions no match reaches (:func:`seed_pass`: a search of the whole disparity range whose
+peaks are kept where they agree with one another) and propagates from those.
 """
 
 from __future__ import annotations
@@ -48,6 +51,35 @@ GUIDED_ROUNDS = 3
 #: Smallest uniqueness margin of the rounds after the first (they propagate from guided
 #: matches, one step further from the network's evidence).
 GUIDED_LATER_MARGIN = 0.2
+#: Smallest field of the matches of the rounds after the first (the network's test, and
+#: the first round's, is > 0).
+GUIDED_LATER_FIELD = 3.0
+#: Growth of the support window per round: in round r (0-based) a left point with fewer
+#: than ``min_support`` matched neighbours in the network's window is searched with the
+#: window ``(1 + GUIDED_GROWTH) ** r`` times as wide and high (0: the network's window in
+#: every round).
+GUIDED_GROWTH = 1.0
+#: Seeds: after the rounds, every left point still unmatched is searched along its whole
+#: row (the disparity range); a peak with at least this ZNCC...
+GUIDED_SEED_ZNCC = 0.85
+#: ...ahead by this margin of the best one at least two pixels away in the whole range...
+GUIDED_SEED_MARGIN = 0.25
+#: ...is kept when its field, with the matches and the other such peaks as neighbours,
+#: exceeds this (eq. 12's bracket; the network's test is > 0).
+GUIDED_SEED_FIELD = 4.0
+#: Guided rounds after the seeds, propagating from them (0: no seeds).
+GUIDED_SEED_ROUNDS = 1
+
+
+def _choose_csr(off_a, idx_a, off_b, idx_b, use_b):
+    """One CSR list per query: query q's list from (off_b, idx_b) where ``use_b[q]``, else
+    from (off_a, idx_a)."""
+    cnt = np.where(use_b, np.diff(off_b), np.diff(off_a))
+    off = np.zeros(len(cnt) + 1, dtype=np.int64)
+    np.cumsum(cnt, out=off[1:])
+    start = np.where(use_b, off_b[:-1] + len(idx_a), off_a[:-1])
+    pos = np.repeat(start - off[:-1], cnt) + np.arange(off[-1])
+    return off, np.r_[idx_a, idx_b].astype(np.int32)[pos]
 
 
 @dataclass(frozen=True)
@@ -88,10 +120,10 @@ def empty_guided() -> GuidedMatches:
 
 
 def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_offset,
-                config, *, margin: float = 0.1, radius: float = GUIDED_RADIUS,
-                search: int = GUIDED_SEARCH, back: int = GUIDED_BACK,
-                min_zncc: float = GUIDED_MIN_ZNCC,
-                min_support: int = GUIDED_MIN_SUPPORT,
+                config, *, margin: float = 0.1, radius: float | None = None,
+                search: int | None = None, back: int | None = None,
+                min_zncc: float | None = None, min_support: int | None = None,
+                window: float = 1.0, min_field: float = 0.0,
                 matched_similarity=None,
                 threads: int | None = None) -> GuidedMatches:
     """Guided matches of the left points the network left unmatched (rectified pairs).
@@ -117,7 +149,15 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
         Smallest lead of the peak's ZNCC over the best one at least two pixels away within
         ``+-search`` px (the uniqueness margin).
     radius, search, back, min_zncc, min_support
-        See the module constants.
+        See the module constants (None: ``GUIDED_RADIUS``, ``GUIDED_SEARCH``,
+        ``GUIDED_BACK``, ``GUIDED_MIN_ZNCC``, ``GUIDED_MIN_SUPPORT``, read at the call).
+    window : float
+        A left point with fewer than ``min_support`` matched neighbours in the network's
+        window gets them (for the prediction and the field test) from the smallest window
+        2, 4... times as wide and high (at most ``window`` times) that has that many, or
+        the largest (1: the network's window only).
+    min_field : float
+        Smallest field u of an accepted match (0: the network's own test, u > 0).
     matched_similarity : (M,) float ndarray, optional
         Eq. 7's normalised distance of each matched pair, when known (the pairs need not
         have descriptors in ``desc_r``: :func:`guided_rounds` passes guided matches).
@@ -135,6 +175,11 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
         local maximum, has ZNCC >= ``min_zncc`` and the margin, searching back finds the
         left point again, and its field is positive.
     """
+    radius = GUIDED_RADIUS if radius is None else radius
+    search = GUIDED_SEARCH if search is None else search
+    back = GUIDED_BACK if back is None else back
+    min_zncc = GUIDED_MIN_ZNCC if min_zncc is None else min_zncc
+    min_support = GUIDED_MIN_SUPPORT if min_support is None else min_support
     n_left = len(pts_l)
     if len(query_idx) == 0 or n_left == 0 or desc_l.dtype == np.uint8:
         return empty_guided()
@@ -149,14 +194,30 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     matched = np.zeros(n_left, dtype=bool)
     matched[qi] = True
     queries = np.flatnonzero(~matched)
-    off, idx = _k.query_neighbours(np.ascontiguousarray(pts_l[queries]), m_left,
-                                   np.float32(config.neighbour_width / 2),
+    qpts = np.ascontiguousarray(pts_l[queries])
+    off, idx = _k.query_neighbours(qpts, m_left, np.float32(config.neighbour_width / 2),
                                    np.float32(config.neighbour_height / 2))
+    scale = 1.0
+    while scale < window:  # the smallest of the windows 2, 4... (at most ``window``)
+        scale = min(2.0 * scale, window)
+        need = np.flatnonzero(np.diff(off) < min_support)
+        if len(need) == 0:
+            break
+        off_n, idx_n = _k.query_neighbours(np.ascontiguousarray(qpts[need]), m_left,
+                                           np.float32(scale * config.neighbour_width / 2),
+                                           np.float32(scale * config.neighbour_height / 2))
+        cnt = np.zeros(len(queries), dtype=np.int64)
+        cnt[need] = np.diff(off_n)
+        off_w = np.zeros(len(queries) + 1, dtype=np.int64)
+        np.cumsum(cnt, out=off_w[1:])
+        use = np.zeros(len(queries), dtype=bool)
+        use[need] = True
+        off, idx = _choose_csr(off, idx, off_w, idx_n, use)
     rows = np.flatnonzero(np.diff(off) >= min_support)
     if len(rows) == 0:
         return empty_guided()
     disp = m_left[:, 0].astype(np.float64) - m_right[:, 0]
-    pred, gx, gy = _k.neighbour_planes(np.ascontiguousarray(pts_l[queries]), off, idx,
+    pred, gx, gy = _k.neighbour_planes(qpts, off, idx,
                                        m_left, disp, GUIDED_PLANE_INLIER, GUIDED_PLANE_MIN)
     pred = pred[rows]
     gx = np.clip(gx[rows], -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
@@ -167,7 +228,7 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     status, best, second, xr, sim = map_chunks(
         lambda qs, cs, ys: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys, float(radius),
                                          int(search), int(back), float(min_zncc),
-                                         float(margin), EPS),
+                                         float(margin), EPS, float(config.gain_tolerance)),
         (q, centre, yoff), threads)
     ok = status == _k.FOUND
     yr = pts_l[q, 1].astype(np.float64) - yoff
@@ -175,7 +236,86 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
                             sim, off, idx, rows, m_left, m_right, m_sim, config.theta,
                             config.slope, config.similarity_weight, config.input_bias,
                             gx, gy)
-    acc = np.flatnonzero(ok & (np.nan_to_num(u, nan=-np.inf) > 0))
+    acc = np.flatnonzero(ok & (np.nan_to_num(u, nan=-np.inf) > min_field))
+    return GuidedMatches(
+        query_idx=q[acc].astype(np.int32),
+        right_points=np.c_[xr[acc], yr[acc]].astype(np.float32),
+        distances=match_distance(u[acc]).astype(np.float32), fields=u[acc],
+        zncc=best[acc], second=second[acc], similarity=sim[acc])
+
+
+def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, config,
+              matched_similarity, *, min_zncc: float | None = None,
+              margin: float | None = None, min_field: float | None = None,
+              threads: int | None = None) -> GuidedMatches:
+    """Seeds where the matches do not reach: the left points not in ``query_idx`` with
+    fewer than ``GUIDED_MIN_SUPPORT`` of them in the network's window, each searched
+    along its whole row of the right image (the disparity range ``[min_disparity,
+    max_disparity]`` of ``config``, resolved), kept when the best ZNCC is at least
+    ``min_zncc``, a local maximum, ahead by ``margin`` of the best one at least two pixels
+    away in the range, searching back finds the left point again (:func:`row_search` with
+    the whole range as its search and radius), and its field exceeds ``min_field``, its
+    neighbours being the matches *and the other peaks found so* (each but itself): a peak
+    far from every match is kept only when enough peaks around it agree on one surface (the
+    local plane of those neighbours carries them, as in :func:`guided_pass`).
+    ``matched_similarity``: eq. 7's distance of each matched pair. None for the module's
+    ``GUIDED_SEED_*`` values. Returns them as :class:`GuidedMatches` (empty when the range
+    is not resolved)."""
+    min_zncc = GUIDED_SEED_ZNCC if min_zncc is None else min_zncc
+    margin = GUIDED_SEED_MARGIN if margin is None else margin
+    min_field = GUIDED_SEED_FIELD if min_field is None else min_field
+    d_hi = config.max_disparity
+    n_left = len(pts_l)
+    if d_hi is None or n_left == 0 or desc_l.dtype == np.uint8:
+        return empty_guided()
+    d_lo = float(config.min_disparity or 0.0)
+    qi = np.ascontiguousarray(query_idx, dtype=np.int32)
+    ti = np.ascontiguousarray(train_idx, dtype=np.int32)
+    matched = np.zeros(n_left, dtype=bool)
+    matched[qi] = True
+    q = np.flatnonzero(~matched).astype(np.int64)
+    # only where no match reaches: fewer than GUIDED_MIN_SUPPORT in the network's window
+    off, _ = _k.query_neighbours(np.ascontiguousarray(pts_l[q]),
+                                 np.ascontiguousarray(pts_l[qi], dtype=np.float32),
+                                 np.float32(config.neighbour_width / 2),
+                                 np.float32(config.neighbour_height / 2))
+    q = q[np.diff(off) < GUIDED_MIN_SUPPORT]
+    if len(q) == 0:
+        return empty_guided()
+    outer = int(np.ceil(0.5 * (float(d_hi) - d_lo))) + 1
+    centre = np.ascontiguousarray(pts_l[q, 0].astype(np.float64) - 0.5 * (d_lo + float(d_hi)))
+    yoff = np.ascontiguousarray(np.asarray(y_offset, dtype=np.float64)[q])
+    status, best, second, xr, sim = map_chunks(
+        lambda qs, cs, ys: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys, float(outer),
+                                         outer, GUIDED_BACK, float(min_zncc), float(margin),
+                                         EPS, float(config.gain_tolerance)),
+        (q, centre, yoff), threads)
+    f = np.flatnonzero(status == _k.FOUND)
+    if len(f) == 0:
+        return empty_guided()
+    q, xr, best, second, sim = q[f], xr[f], best[f], second[f], sim[f]
+    yr = pts_l[q, 1].astype(np.float64) - yoff[f]
+    n_m = len(qi)
+    m_left = np.ascontiguousarray(np.r_[pts_l[qi], pts_l[q]], dtype=np.float32)
+    m_right = np.ascontiguousarray(np.r_[pts_r[ti], np.c_[xr, yr]], dtype=np.float32)
+    m_sim = np.r_[np.asarray(matched_similarity, dtype=np.float64), sim]
+    qpts = np.ascontiguousarray(pts_l[q])
+    off, idx = _k.query_neighbours(qpts, m_left, np.float32(config.neighbour_width / 2),
+                                   np.float32(config.neighbour_height / 2))
+    owner = np.repeat(np.arange(len(q)), np.diff(off))
+    others = idx != n_m + owner  # each peak but itself
+    off = np.zeros(len(q) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(owner[others], minlength=len(q)), out=off[1:])
+    idx = np.ascontiguousarray(idx[others], dtype=np.int32)
+    disp = m_left[:, 0].astype(np.float64) - m_right[:, 0]
+    _, gx, gy = _k.neighbour_planes(qpts, off, idx, m_left, disp, GUIDED_PLANE_INLIER,
+                                    GUIDED_PLANE_MIN)
+    gx = np.clip(gx, -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
+    gy = np.clip(gy, -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
+    u = _k.continuity_field(qpts, xr, yr, sim, off, idx, np.arange(len(q)), m_left, m_right,
+                            m_sim, config.theta, config.slope, config.similarity_weight,
+                            config.input_bias, gx, gy)
+    acc = np.flatnonzero(np.nan_to_num(u, nan=-np.inf) > min_field)
     return GuidedMatches(
         query_idx=q[acc].astype(np.int32),
         right_points=np.c_[xr[acc], yr[acc]].astype(np.float32),
@@ -184,14 +324,28 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
 
 
 def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_offset,
-                  config, *, margin: float = 0.1, rounds: int = GUIDED_ROUNDS,
-                  later_margin: float = GUIDED_LATER_MARGIN,
+                  config, *, margin: float = 0.1, rounds: int | None = None,
+                  later_margin: float | None = None, growth: float | None = None,
+                  later_field: float | None = None, seed_rounds: int | None = None,
                   threads: int | None = None) -> GuidedMatches:
-    """:func:`guided_pass` run ``rounds`` times: round r propagates from the network's
-    matches and the guided matches of rounds 1..r-1 to the left points still unmatched,
-    with the uniqueness margin ``margin`` in the first round and ``max(margin,
-    later_margin)`` after it. Arguments as :func:`guided_pass`; returns the guided matches
-    of all rounds, in round order (stops early when a round finds none)."""
+    """:func:`guided_pass` run ``rounds`` times: round r (0-based) propagates from the
+    network's matches and the guided matches of the rounds before it to the left points
+    still unmatched. Round 0 is :func:`guided_pass` with the uniqueness margin ``margin``;
+    round r > 0 has the margin ``max(margin, later_margin)``, the smallest field
+    ``later_field`` (``min_field``) and, for the points with too few matched neighbours
+    in the network's window, the window ``(1 + growth) ** r`` times as large
+    (``window``). With ``seed_rounds`` > 0, the left points still unmatched then get
+    :func:`seed_pass`'s seeds, and ``seed_rounds`` more rounds (numbered 1, 2... again)
+    propagate from everything found. None: :data:`GUIDED_ROUNDS`,
+    :data:`GUIDED_LATER_MARGIN`, :data:`GUIDED_GROWTH`, :data:`GUIDED_LATER_FIELD`,
+    :data:`GUIDED_SEED_ROUNDS`. Other arguments as :func:`guided_pass`. Returns the
+    guided matches of all rounds (the seeds after the first ``rounds``), in round order;
+    the rounds stop early when one finds none."""
+    rounds = GUIDED_ROUNDS if rounds is None else rounds
+    later_margin = GUIDED_LATER_MARGIN if later_margin is None else later_margin
+    growth = GUIDED_GROWTH if growth is None else growth
+    seed_rounds = GUIDED_SEED_ROUNDS if seed_rounds is None else seed_rounds
+    later_field = GUIDED_LATER_FIELD if later_field is None else later_field
     qi = np.ascontiguousarray(query_idx, dtype=np.int32)
     ti = np.ascontiguousarray(train_idx, dtype=np.int32)
     if len(qi) == 0 or len(pts_l) == 0 or desc_l.dtype == np.uint8:
@@ -199,17 +353,34 @@ def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     sim = similarity_distance(desc_l, desc_r, qi, ti, gain_tolerance=config.gain_tolerance)
     right = pts_r
     found = []
-    for r in range(max(int(rounds), 1)):
-        gm = guided_pass(pts_l, right, desc_l, desc_r, g_l, g_r, qi, ti, y_offset, config,
-                         margin=margin if r == 0 else max(margin, later_margin),
-                         matched_similarity=sim, threads=threads)
-        if len(gm.query_idx) == 0:
-            break
+
+    def add(gm):
+        nonlocal qi, ti, right, sim
         found.append(gm)
         qi = np.r_[qi, gm.query_idx].astype(np.int32)
         ti = np.r_[ti, len(right) + np.arange(len(gm.query_idx))].astype(np.int32)
         right = np.r_[right, gm.right_points].astype(np.float32)
         sim = np.r_[sim, gm.similarity]
+
+    def run(first, count):
+        for r in range(first, first + count):
+            gm = guided_pass(pts_l, right, desc_l, desc_r, g_l, g_r, qi, ti, y_offset,
+                             config, margin=margin if r == 0 else max(margin, later_margin),
+                             window=(1.0 + growth) ** r,
+                             min_field=0.0 if r == 0 else later_field, matched_similarity=sim,
+                             threads=threads)
+            if len(gm.query_idx) == 0:
+                break
+            add(gm)
+
+    rounds = max(int(rounds), 1)
+    run(0, rounds)
+    if seed_rounds > 0:
+        gm = seed_pass(pts_l, right, desc_l, g_l, g_r, qi, ti, y_offset, config, sim,
+                       threads=threads)
+        if len(gm.query_idx):
+            add(gm)
+            run(1, int(seed_rounds))
     if not found:
         return empty_guided()
     return GuidedMatches(*(np.concatenate([getattr(g, f.name) for g in found])

@@ -93,9 +93,10 @@ MATCHER_PARAMS: tuple[Param, ...] = (
     # images, so HopfieldMatcher.match on descriptors alone does not do it)
     Param("guided", True, boolean(), doc=(
         "match_stereo's guided second pass: left points the network left unmatched get a "
-        "disparity from a row search near the one their matched neighbours support, kept "
-        "only when it passes the network's own field test, a uniqueness margin and a "
-        "left-right check (hopmatch.matching.guided; result.passes == 1)")),
+        "disparity from a row search near the one their matched neighbours support (or, "
+        "far from every match, over the whole range where such peaks agree with one "
+        "another), kept only when it passes the network's own field test, a uniqueness "
+        "margin and a left-right check (hopmatch.matching.guided; result.passes == 1)")),
     Param("guided_margin", 0.1, real(0.0), doc=(
         "uniqueness margin of the guided pass: the ZNCC of the peak must exceed the best "
         "one at least 2 px away (within +-4 px) by this much")),

@@ -12,13 +12,18 @@ import hopmatch
 from hopmatch._kernels import guided as _k
 from hopmatch.feature.descriptor import gradient_windows
 from hopmatch.matching.guided import (
+    GUIDED_BACK,
     GUIDED_GRADIENT_LIMIT,
     GUIDED_MIN_ZNCC,
     GUIDED_PLANE_INLIER,
     GUIDED_PLANE_MIN,
     GUIDED_RADIUS,
+    GUIDED_SEED_FIELD,
+    GUIDED_SEED_MARGIN,
+    GUIDED_SEED_ZNCC,
     guided_pass,
     guided_rounds,
+    seed_pass,
 )
 from hopmatch.matching.params import matcher_config
 from hopmatch.matching.similarity import similarity_distance
@@ -66,18 +71,23 @@ def _search_case(seed=3, shift=7.3):
     return g_l, g_r, pts, desc
 
 
-def test_row_search_matches_the_reference():
+@pytest.mark.parametrize("gain, gain_tol", [(1.0, 1.0), (0.93, 1.0), (0.93, 1.1),
+                                            (1.2, 1.1)])
+def test_row_search_matches_the_reference(gain, gain_tol):
+    """Also with a right image of another gain (``gain``): the similarity then allows for
+    a gain within ``gain_tol`` (eq. 7 as the network's, 1: as written)."""
     g_l, g_r, pts, desc = _search_case()
+    g_r = (g_r * gain).astype(g_r.dtype)
     q = np.arange(len(pts), dtype=np.int64)
     centre = pts[:, 0].astype(np.float64) - 7.3 + RNG.uniform(-2.5, 2.5, len(pts))
     yoff = RNG.uniform(-0.4, 0.4, len(pts))
     status, best, second, xr, sim = _k.row_search(g_l, g_r, pts, desc, q, centre, yoff, 2.0,
-                                                  4, 1, 0.5, 0.05, 1e-6)
+                                                  4, 1, 0.5, 0.05, 1e-6, gain_tol)
     found = 0
     for m in range(len(pts)):
         ok, b, s2, x, si = ng.row_search_one(g_l, g_r, float(pts[m, 0]), float(pts[m, 1]),
                                              desc[m], centre[m], yoff[m], 2.0, 4, 1, 0.5,
-                                             0.05)
+                                             0.05, gain_tol)
         assert (status[m] == _k.FOUND) == ok, m
         assert best[m] == pytest.approx(b, abs=1e-6)
         assert second[m] == pytest.approx(s2, abs=1e-6)
@@ -147,10 +157,12 @@ def _scene(shift=6, noise=0.0):
     return left, np.clip(noisy, 0, 255).astype(np.uint8)
 
 
-def test_guided_matches_pass_every_acceptance_test():
+@pytest.mark.parametrize("step, window", [(2, 1.0), (12, 2.0)])
+def test_guided_matches_pass_every_acceptance_test(step, window):
     """Each guided match passes the tests it is accepted on, recomputed by the references:
     found by the search (peak near the prediction, ZNCC and margin, back search) and a
-    positive field against its matched neighbours."""
+    positive field against its matched neighbours. With ``window`` > 1 a point with fewer
+    than 3 matched neighbours in the network's window takes them from the larger one."""
     left, right = _scene()
     det = hopmatch.DericheMoravecDetector()
     pl, _, dl, gl = det.detect_and_describe(left)
@@ -158,11 +170,12 @@ def test_guided_matches_pass_every_acceptance_test():
     res = hopmatch.match_stereo(left, right, max_disparity=12, guided=False, refine=False)
     net = res.network
     config = net.config
-    # the network matches almost every point of this clean pair: leave half of its
+    # the network matches almost every point of this clean pair: leave most of its
     # matches out, so that the guided pass has points to propagate to
-    qi, ti = net.query_idx[::2], net.train_idx[::2]
+    qi, ti = net.query_idx[::step], net.train_idx[::step]
     yoff = np.full(len(pl), 0.0)
-    gm = guided_pass(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config, margin=0.1)
+    gm = guided_pass(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config, margin=0.1,
+                     window=window)
     assert len(gm.query_idx) > len(qi) // 4
     assert not np.isin(gm.query_idx, qi).any()  # only unmatched left points
     # the search's parabola on the gradient windows is within a third of a pixel; the
@@ -174,8 +187,12 @@ def test_guided_matches_pass_every_acceptance_test():
     disp = ml[:, 0].astype(np.float64) - mr[:, 0]
     nb = ng.neighbours(pl[gm.query_idx], ml, config.neighbour_width / 2,
                        config.neighbour_height / 2)
+    wide = ng.neighbours(pl[gm.query_idx], ml, window * config.neighbour_width / 2,
+                         window * config.neighbour_height / 2)
+    grown = 0
     for m, i in enumerate(gm.query_idx):
-        j = np.array(sorted(nb[m]))
+        j = np.array(sorted(nb[m] if len(nb[m]) >= 3 else wide[m]))
+        grown += len(nb[m]) < 3
         assert len(j) >= 3
         pred, gx, gy = ng.local_plane(pl[i], ml[j], disp[j], GUIDED_PLANE_INLIER,
                                       GUIDED_PLANE_MIN)
@@ -184,7 +201,7 @@ def test_guided_matches_pass_every_acceptance_test():
         centre = float(pl[i, 0]) - pred
         ok, best, second, xr, sim = ng.row_search_one(
             gl, gr, float(pl[i, 0]), float(pl[i, 1]), dl[i], centre, 0.0, GUIDED_RADIUS, 3,
-            1, GUIDED_MIN_ZNCC, 0.1)
+            1, GUIDED_MIN_ZNCC, 0.1, config.gain_tolerance)
         assert ok, m
         assert gm.right_points[m, 0] == pytest.approx(xr, abs=1e-4)
         assert best >= GUIDED_MIN_ZNCC and best - second >= 0.1
@@ -193,6 +210,7 @@ def test_guided_matches_pass_every_acceptance_test():
                      config.theta, config.slope, config.similarity_weight,
                      config.input_bias, gradient=grad)
         assert u > 0 and u == pytest.approx(gm.fields[m], abs=1e-6)
+    assert (grown > 0) == (window > 1)  # the larger window served some points
 
 
 def test_match_stereo_returns_guided_matches_as_extra_right_points():
@@ -238,8 +256,9 @@ def test_guided_pass_without_network_matches_finds_nothing():
 
 def test_guided_rounds_propagate_from_earlier_rounds():
     """Round 2 starts from the network's matches and round 1's: its matches are left
-    points neither matched, each passing the tests of guided_pass run on that union (the
-    first round is guided_pass itself)."""
+    points neither matched, each passing the tests of guided_pass run on that union with
+    the later margin, the later minimum field and the grown window (the first round is
+    guided_pass itself)."""
     left, right = _scene(noise=6.0)
     det = hopmatch.DericheMoravecDetector()
     pl, _, dl, gl = det.detect_and_describe(left)
@@ -250,7 +269,8 @@ def test_guided_rounds_propagate_from_earlier_rounds():
     yoff = np.zeros(len(pl))
     one = guided_pass(pl, pr, dl, dr, gl, gr, qi, ti, yoff, net.config, margin=0.1)
     two = guided_rounds(pl, pr, dl, dr, gl, gr, qi, ti, yoff, net.config, margin=0.1,
-                        rounds=2, later_margin=0.2)
+                        rounds=2, later_margin=0.2, growth=1.0, later_field=1.0,
+                        seed_rounds=0)
     k = len(one.query_idx)
     np.testing.assert_array_equal(two.query_idx[:k], one.query_idx)
     assert len(two.query_idx) > k and len(np.unique(two.query_idx)) == len(two.query_idx)
@@ -261,6 +281,102 @@ def test_guided_rounds_propagate_from_earlier_rounds():
                 one.similarity]
     again = guided_pass(pl, np.r_[pr, one.right_points].astype(np.float32), dl, dr, gl, gr,
                         np.r_[qi, one.query_idx], np.r_[ti, len(pr) + np.arange(k)], yoff,
-                        net.config, margin=0.2, matched_similarity=sim)
+                        net.config, margin=0.2, window=2.0, min_field=1.0,
+                        matched_similarity=sim)
     np.testing.assert_array_equal(two.query_idx[k:], again.query_idx)
     np.testing.assert_array_equal(two.fields[k:], again.fields)
+    assert len(two.fields) > k and (two.fields[k:] > 1.0).all()
+    # seeds come after the rounds, then rounds propagate from them: the rounds' matches
+    # come first, unchanged
+    more = guided_rounds(pl, pr, dl, dr, gl, gr, qi, ti, yoff, net.config, margin=0.1,
+                         rounds=2, later_margin=0.2, growth=1.0, later_field=1.0,
+                         seed_rounds=1)
+    n = len(two.query_idx)
+    np.testing.assert_array_equal(more.query_idx[:n], two.query_idx)
+    assert len(np.unique(more.query_idx)) == len(more.query_idx)
+
+
+def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test():
+    """seed_pass: the seeds are the left points without a match and with fewer than 3
+    matches in the network's window whose row search over the whole disparity range (the
+    reference) finds a peak with a field above the seed minimum, the matches and the
+    other such peaks (all but itself) as neighbours; far from the few matches left, only
+    the peaks' agreement among themselves can carry them."""
+    left, right = _scene(noise=6.0)
+    left, right = left[:64], right[:64]  # fewer points for the slow reference
+    det = hopmatch.DericheMoravecDetector()
+    pl, _, dl, gl = det.detect_and_describe(left)
+    pr, _, dr, gr = det.detect_and_describe(right)
+    net = hopmatch.match_stereo(left, right, max_disparity=12, guided=False,
+                                refine=False).network
+    config = net.config
+    keep = pl[net.query_idx, 0] < 60  # the matches of the left strip only
+    qi, ti = net.query_idx[keep], net.train_idx[keep]
+    msim = similarity_distance(dl, dr, qi.astype(np.int32), ti.astype(np.int32),
+                               gain_tolerance=config.gain_tolerance)
+    yoff = np.zeros(len(pl))
+    sd = seed_pass(pl, pr, dl, gl, gr, qi, ti, yoff, config, msim)
+    assert len(sd.query_idx) > 10 and not np.isin(sd.query_idx, qi).any()
+    assert (pl[sd.query_idx, 0] > 100).sum() > 10  # far from every match
+    np.testing.assert_allclose(pl[sd.query_idx, 0] - sd.right_points[:, 0], 6.0, atol=0.3)
+    lo, hi = float(config.min_disparity or 0.0), float(config.max_disparity)
+    outer = int(np.ceil(0.5 * (hi - lo))) + 1
+    # the reference search of every unmatched left point over the whole range
+    peaks = []  # (left point, xr, similarity)
+    size = int(round(np.sqrt(dl.shape[1])))
+    rad = size // 2
+    h, w = gr.shape
+    unmatched = np.setdiff1d(np.arange(len(pl)), qi)
+    near = ng.neighbours(pl[unmatched], pl[qi], config.neighbour_width / 2,
+                         config.neighbour_height / 2)
+    assert min(map(len, near)) < 3 <= max(map(len, near))  # both kinds of points
+    for i in unmatched[[len(nb) < 3 for nb in near]]:  # only where no match reaches
+        x, y = float(pl[i, 0]), float(pl[i, 1])
+        c0 = np.floor(x - 0.5 * (lo + hi) + 0.5)
+        if (c0 - outer - 1 - rad < 0 or c0 + outer + rad + 2 > w - 1
+                or np.floor(y) - rad < 0 or np.floor(y) - rad + size > h - 1):
+            continue  # the kernel's OUTSIDE: a window of the search leaves the image
+        if not (np.floor(x) - GUIDED_BACK - rad >= 0
+                and np.floor(x) + GUIDED_BACK + rad + 1 <= w - 1):
+            continue  # the back search's windows would leave the image
+        ok, _, _, xr, sim = ng.row_search_one(gl, gr, x, y, dl[i], x - 0.5 * (lo + hi), 0.0,
+                                              float(outer), outer, GUIDED_BACK,
+                                              GUIDED_SEED_ZNCC, GUIDED_SEED_MARGIN,
+                                              config.gain_tolerance)
+        if ok:
+            peaks.append((i, xr, sim))
+    pk = np.array([p[0] for p in peaks])
+    ml = np.r_[pl[qi], pl[pk]].astype(np.float32)
+    # the peaks as neighbours: right points in float32, as every matched point
+    mr = np.r_[pr[ti], np.c_[[p[1] for p in peaks], pl[pk, 1]]].astype(np.float32)
+    mr = mr.astype(np.float64)
+    ms = np.r_[msim, [p[2] for p in peaks]]
+    disp = ml[:, 0].astype(np.float64) - mr[:, 0]
+    nb = ng.neighbours(pl[pk], ml, config.neighbour_width / 2, config.neighbour_height / 2)
+    fields_ = {}
+    for m, (i, xr, sim) in enumerate(peaks):
+        j = np.array(sorted(nb[m] - {len(qi) + m}))  # the matches and the other peaks
+        _, gx, gy = ng.local_plane(pl[i], ml[j], disp[j], GUIDED_PLANE_INLIER,
+                                   GUIDED_PLANE_MIN)
+        grad = tuple(float(np.clip(g, -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT))
+                     for g in (gx, gy))
+        u = ng.field((float(pl[i, 0]), float(pl[i, 1])), (xr, float(pl[i, 1])), sim, ml[j],
+                     mr[j], ms[j], config.theta, config.slope, config.similarity_weight,
+                     config.input_bias, gradient=grad)
+        fields_[int(i)] = (xr, u)
+    # the seeds are the peaks above the minimum field: the default one, and one that
+    # refuses about half of them
+    us = np.sort([u for _, u in fields_.values()])
+    high = float(0.5 * (us[len(us) // 2 - 1] + us[len(us) // 2]))  # between two fields
+    for min_field, got in ((GUIDED_SEED_FIELD, sd),
+                           (high, seed_pass(pl, pr, dl, gl, gr, qi, ti, yoff, config, msim,
+                                            min_field=high))):
+        kept = {i: v for i, v in fields_.items() if v[1] > min_field}
+        assert sorted(kept) == sorted(got.query_idx.tolist())
+        for m, i in enumerate(got.query_idx):
+            assert got.right_points[m, 0] == pytest.approx(kept[int(i)][0], abs=1e-4)
+            assert got.fields[m] == pytest.approx(kept[int(i)][1], abs=1e-6)
+    assert 0 < len(kept) < len(peaks)
+    # without a resolved range there is nothing to search
+    unresolved = matcher_config({"max_disparity": None})
+    assert len(seed_pass(pl, pr, dl, gl, gr, qi, ti, yoff, unresolved, msim).query_idx) == 0
