@@ -53,7 +53,7 @@ VARIANTS = [
     ("defaults (both stages)", True, {}),
     ("second stage with square windows", True, {"SLANT_GRADIENT_LIMIT": 0.0}),
     ("second stage with uniform weights", True, {"SLANT_SIGMA": 0.0}),
-    ("second stage with linear interpolation", True, {"SLANT_CUBIC": False}),
+    ("second stage with cubic interpolation", True, {"SLANT_CUBIC": True}),
     ("second stage with 7x7 windows", True, {"SLANT_RADIUS": 3}),
     ("second stage twice", True, {"SLANT_PASSES": 2}),
     ("second stage, step 0.5 two levels", True, {"SLANT_STEP": 0.5, "SLANT_LEVELS": 2}),

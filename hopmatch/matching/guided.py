@@ -67,8 +67,10 @@ GUIDED_SEED_MARGIN = 0.25
 #: ...is kept when its field, with the matches and the other such peaks as neighbours,
 #: exceeds this (eq. 12's bracket; the network's test is > 0).
 GUIDED_SEED_FIELD = 4.0
-#: Guided rounds after the seeds, propagating from them (0: no seeds).
-GUIDED_SEED_ROUNDS = 1
+#: Guided rounds after the seeds, propagating from them (0, the default: no seeds; 1 adds
+#: about 1 % of correct matches pooled, a quarter on KITTI #70, for about 55 ms per
+#: motorcycle pair: docs/parameters.md, "Propagation and seeds").
+GUIDED_SEED_ROUNDS = 0
 
 
 def _choose_csr(off_a, idx_a, off_b, idx_b, use_b):
