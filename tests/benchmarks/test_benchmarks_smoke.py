@@ -327,7 +327,7 @@ def test_refine_stages_smoke():
     out = run_script("refine_stages.py")
     labels = [r"first stage only \(7x7 square, linear\)", r"defaults \(both stages\)",
               "second stage with square windows", "second stage with uniform weights",
-              "second stage with linear interpolation", "second stage with 7x7 windows"]
+              "second stage with cubic interpolation", "second stage with 7x7 windows"]
     assert_lines(
         out,
         r"\| variant \| motorcycle \| correct \|",
