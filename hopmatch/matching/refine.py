@@ -34,7 +34,7 @@ SLANT_STEP = 0.25
 SLANT_LEVELS = 1
 SLANT_TOL = 0.1
 #: Cubic (Keys) interpolation in the second stage (False, the default: linear, as the
-#: first; cubic gains 0.001-0.002 px of median error for about 45 ms per motorcycle pair:
+#: first; cubic gains 0.001-0.005 px of median error for about 30 ms per motorcycle pair:
 #: docs/parameters.md, "The refinement's slanted second stage").
 SLANT_CUBIC = False
 SLANT_PASSES = 1
@@ -118,7 +118,8 @@ def refine_disparities(gray_l, gray_r, left, xr, yr, *, radius: int = REFINE_RAD
     uniform weights and linear interpolation. The second starts from the first's x and
     refines (one level of :data:`SLANT_STEP` spacing) with :data:`SLANT_RADIUS` windows
     (down to :data:`SLANT_MIN_RADIUS` at the borders), Gaussian weights of
-    :data:`SLANT_SIGMA`, cubic interpolation, and a right window sheared and stretched
+    :data:`SLANT_SIGMA`, :data:`SLANT_CUBIC` interpolation (linear by default), and a right
+    window sheared and stretched
     along the local disparity plane: the least-squares plane through the first stage's
     disparities of the matches within
     :data:`SLANT_HALF_WINDOW` px (:func:`hopmatch._kernels.guided.neighbour_planes`), its
