@@ -151,7 +151,7 @@ def histogram_spread(sample: np.ndarray) -> float:
         return 0.0
     if sample.dtype == np.uint8:  # OpenCV's histogram: 3x faster than np.bincount
         counts = cv2.calcHist([np.ascontiguousarray(sample)], [0], None, [256], [0, 256])
-        counts = counts[:, 0].astype(np.int64)
+        counts = counts.reshape(-1).astype(np.int64)  # (256, 1) in OpenCV 4, (256,) in 5
     else:
         counts = np.bincount(sample.ravel(), minlength=1)
     low = int(np.flatnonzero(counts)[0])
