@@ -11,8 +11,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import os
 import platform
+import subprocess
+import sys
 import time
 
 import cv2
@@ -90,6 +93,24 @@ def single_thread() -> None:
 
     cv2.setNumThreads(1)
     hopmatch.setNumThreads(1)
+
+
+def run_fresh_interpreter(child: str, args: list, cache_dir: str | None,
+                          notice: bool) -> dict:
+    """Run the script ``child`` (``python -c child *args``) in a fresh interpreter with
+    ``NUMBA_CACHE_DIR=cache_dir`` (None: as set now) and the first-run notice on
+    (``notice``) or off (``HOPMATCH_COMPILE_NOTICE=0``); the JSON object its last line of
+    stdout prints. Raises ``RuntimeError`` with its stderr when it fails."""
+    env = dict(os.environ) if cache_dir is None else dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
+    if notice:
+        env.pop("HOPMATCH_COMPILE_NOTICE", None)
+    else:
+        env["HOPMATCH_COMPILE_NOTICE"] = "0"
+    out = subprocess.run([sys.executable, "-c", child, *args], env=env, capture_output=True,
+                         text=True)
+    if out.returncode:
+        raise RuntimeError(f"the measuring interpreter failed:\n{out.stderr}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def best_time(fn, repeat: int = 7, warmup: int = 1) -> float:

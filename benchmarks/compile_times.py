@@ -22,14 +22,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import add_smoke_option  # noqa: E402
+from _common import add_smoke_option, run_fresh_interpreter  # noqa: E402
 
 CHILD = r"""
 import json, sys, time
@@ -87,13 +85,10 @@ print(json.dumps({"import": t_import - t_start, "call": t1 - t0,
 
 
 def run(cache_dir: str | None, mode: str) -> dict:
-    env = dict(os.environ) if cache_dir is None else dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
-    env["HOPMATCH_COMPILE_NOTICE"] = "0"
-    out = subprocess.run([sys.executable, "-c", CHILD, mode], env=env, capture_output=True,
-                         text=True)
-    if out.returncode:
-        raise RuntimeError(f"the measuring interpreter failed:\n{out.stderr}")
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    """The figures of a fresh interpreter with ``NUMBA_CACHE_DIR=cache_dir`` (None: as set
+    now) running ``hopmatch.warmup()`` (``mode`` "warmup") or the first ``match_stereo``
+    ("first")."""
+    return run_fresh_interpreter(CHILD, [mode], cache_dir, notice=False)
 
 
 def main(argv=None) -> None:

@@ -19,15 +19,12 @@ figures meaningless.
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import add_smoke_option  # noqa: E402
+from _common import add_smoke_option, run_fresh_interpreter  # noqa: E402
 
 CHILD = r"""
 import json, sys, time
@@ -125,13 +122,7 @@ def run(cache_dir: str | None, mode: str = "warmup") -> dict:
     """Times of a fresh interpreter with ``NUMBA_CACHE_DIR=cache_dir`` (None: as set now);
     ``mode`` "warmup" calls ``hopmatch.warmup()`` before the first ``match_stereo``,
     "first" does not (what a new user waits)."""
-    env = dict(os.environ) if cache_dir is None else dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
-    env.pop("HOPMATCH_COMPILE_NOTICE", None)
-    out = subprocess.run([sys.executable, "-c", CHILD, mode], env=env, capture_output=True,
-                         text=True)
-    if out.returncode:
-        raise RuntimeError(f"the measuring interpreter failed:\n{out.stderr}")
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return run_fresh_interpreter(CHILD, [mode], cache_dir, notice=True)
 
 
 def main(argv=None) -> None:

@@ -137,17 +137,18 @@ def local_plane(query, neighbours_left, disparities, inlier, min_count):
     return float(a), float(gx), float(gy)
 
 
-def refine_one(img_l, img_r, xl, yl, xr, yr, radius, step, levels, iterations, tol,
-               max_shift):
-    """The refinement of one match as ``hopmatch._kernels.refine.refine_rows`` documents
-    it: ``(x, ok)``."""
-    s = 2 * radius + 1
-    a = window(img_l, xl, yl, s)
+def parabola_search(z, xr, step, levels, iterations, tol, max_shift):
+    """The step search of ``hopmatch._kernels.refine.refine_rows`` on the score ``z(x)``
+    from ``xr``: at each of ``levels`` step sizes (``step`` halved each level), a parabola
+    through ``z`` at ``x - h, x, x + h`` moves ``x`` (by at most ``h``; a full step uphill
+    where the three are not a peak) until a move is below ``tol``; ``iterations`` moves in
+    all. ``(x, ok)``: ``(xr, False)`` when a level does not settle or ``x`` leaves
+    ``xr +- max_shift``."""
     x, h, moves = xr, step, 0
     for _ in range(levels):
         done = False
         while moves < iterations:
-            zm, z0, zp = (zncc(a, window(img_r, x + o, yr, s)) for o in (-h, 0.0, h))
+            zm, z0, zp = z(x - h), z(x), z(x + h)
             den = zm - 2 * z0 + zp
             if zm > z0 or zp > z0 or den >= 0:
                 move = h if zp > zm else -h
@@ -164,6 +165,19 @@ def refine_one(img_l, img_r, xl, yl, xr, yr, radius, step, levels, iterations, t
             return xr, False
         h /= 2
     return x, True
+
+
+def refine_one(img_l, img_r, xl, yl, xr, yr, radius, step, levels, iterations, tol,
+               max_shift):
+    """The refinement of one match as ``hopmatch._kernels.refine.refine_rows`` documents
+    it: ``(x, ok)``."""
+    s = 2 * radius + 1
+    a = window(img_l, xl, yl, s)
+
+    def z(x):
+        return zncc(a, window(img_r, x, yr, s))
+
+    return parabola_search(z, xr, step, levels, iterations, tol, max_shift)
 
 
 def keys_cubic(g, x, y, a=-0.5):
@@ -203,24 +217,4 @@ def refine_one_slanted(img_l, img_r, xl, yl, xr, yr, gx, gy, radius, sigma, cubi
         return weighted_zncc(a, [sample(img_r, x + c * (1 - gx) - r * gy, yr + r)
                                  for c, r in offs], w)
 
-    x, h, moves = xr, step, 0
-    for _ in range(levels):
-        done = False
-        while moves < iterations:
-            zm, z0, zp = z(x - h), z(x), z(x + h)
-            den = zm - 2 * z0 + zp
-            if zm > z0 or zp > z0 or den >= 0:
-                move = h if zp > zm else -h
-            else:
-                move = h * min(max(0.5 * (zm - zp) / den, -1.0), 1.0)
-            x += move
-            moves += 1
-            if abs(move) < tol:
-                done = True
-                break
-            if abs(x - xr) > max_shift:
-                break
-        if not done or abs(x - xr) > max_shift:
-            return xr, False
-        h /= 2
-    return x, True
+    return parabola_search(z, xr, step, levels, iterations, tol, max_shift)
