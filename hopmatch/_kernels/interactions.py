@@ -41,21 +41,28 @@ def count_interactions(ni, nk, start, nb_off, nb_idx, limit=-1):
 
 
 @jit
-def interaction_bound(start, nb_off, nb_idx):
-    """An upper bound of :func:`count_interactions` in O(Nl + neighbour entries): every
-    neuron of i times every neuron of i's neighbours, ``l != k`` not excluded (it removes at
-    most one pair per neuron and neighbour)."""
-    total = 0
+def interaction_bounds(start, nb_off, nb_idx):
+    """Bounds ``(lower, upper)`` of :func:`count_interactions` in O(Nl + neighbour
+    entries). ``upper``: every neuron of i times every neuron of i's neighbours, ``l != k``
+    not excluded; ``lower``: the same with one neuron fewer per neighbour (``l != k``
+    removes at most one neuron of a neighbour j for each neuron (i, k))."""
+    lower = 0
+    upper = 0
     for i in range(start.shape[0] - 1):
         c = start[i + 1] - start[i]
         if c == 0:
             continue
         s = 0
+        s_less = 0
         for t in range(nb_off[i], nb_off[i + 1]):
             j = nb_idx[t]
-            s += start[j + 1] - start[j]
-        total += c * s
-    return total
+            cj = start[j + 1] - start[j]
+            s += cj
+            if cj > 1:
+                s_less += cj - 1
+        upper += c * s
+        lower += c * s_less
+    return lower, upper
 
 
 @jit
@@ -78,7 +85,7 @@ def fill_interactions(left, right, ni, nk, start, nb_off, nb_idx, sim, theta, sl
     (eq. 10), with d the Euclidean disparity of eq. 6 and s the weighted similarity term.
 
     Returns ``(off, idx, w)``, ``off[-1]`` the number of interactions; ``capacity`` must be
-    at least that (:func:`count_interactions`, or :func:`interaction_bound`).
+    at least that (:func:`count_interactions`, or :func:`interaction_bounds`).
 
     The weights are symmetric (``C_ik,jl = C_jl,ik``) and the neighbour relation is too, so
     each weight is computed once: neurons are sorted by (i, k) and each row of the CSR by

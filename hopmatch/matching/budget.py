@@ -67,20 +67,25 @@ def check_neighbour_budget(points: np.ndarray, config) -> None:
 
 
 def interaction_capacity(ni, nk, start, nb_off, nb_idx, max_interactions: int) -> int:
-    """Room to allocate for the interactions: the cheap :func:`_ki.interaction_bound` when it
-    is within ``max_interactions``, else the exact count, which must be within it
-    (:class:`BudgetExceededError` otherwise, before anything of that size is allocated).
+    """Room to allocate for the interactions: the cheap upper bound of
+    :func:`_ki.interaction_bounds` when it is within ``max_interactions``, else the exact
+    count, which must be within it (:class:`BudgetExceededError` otherwise, before anything
+    of that size is allocated).
 
-    The exact count stops as soon as it passes ``max_interactions``, so a refusal costs
-    O(max_interactions) steps at most, however crowded the points are."""
-    bound = _ki.interaction_bound(start, nb_off, nb_idx)
-    if bound <= max_interactions:
-        return bound
-    n_inter = _ki.count_interactions(ni, nk, start, nb_off, nb_idx, max_interactions)
+    A refusal costs O(Nl + neighbour entries) when the cheap lower bound is already past
+    ``max_interactions``, else O(max_interactions) steps at most: the exact count stops as
+    soon as it passes it, however crowded the points are."""
+    lower, upper = _ki.interaction_bounds(start, nb_off, nb_idx)
+    if upper <= max_interactions:
+        return upper
+    if lower > max_interactions:
+        n_inter = lower
+    else:
+        n_inter = _ki.count_interactions(ni, nk, start, nb_off, nb_idx, max_interactions)
     if n_inter > max_interactions:
         raise BudgetExceededError(
-            f"the network would have {n_inter} interactions or more (counted until past the "
-            f"budget), more than max_interactions={max_interactions}; shrink "
+            f"the network would have at least {n_inter} interactions, more than "
+            f"max_interactions={max_interactions}; shrink "
             "neighbour_width/neighbour_height, narrow the disparity range, use fewer "
             "keypoints, or raise max_interactions", argument="max_interactions"
         )

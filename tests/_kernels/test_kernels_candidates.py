@@ -228,10 +228,10 @@ class TestCountStopsAtTheBudget:
         f = np.array([[0, 0, 0], [0, 0, -1], [0, 1, 0]], np.float64)
         for fundamental in (None, f):
             candidate_pairs(left[:10], right[:10], -1000, 1000, 1000, 10**6, fundamental)
-            t0 = time.perf_counter()
+            t0 = time.process_time()  # CPU seconds, every thread: steady under load
             with pytest.raises(BudgetExceededError, match="more than max_neurons=5000000"):
                 candidate_pairs(left, right, -1000.0, 1000.0, 1000.0, 5_000_000, fundamental)
-            assert time.perf_counter() - t0 < 1.0
+            assert time.process_time() - t0 < 1.0
 
     def test_huge_bounds_keep_every_pair(self):
         """max_vertical of 1e19 (beyond int64 once turned into rows) or 3.5e38 (inf in

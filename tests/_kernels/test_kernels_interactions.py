@@ -101,8 +101,13 @@ class TestSparsity:
         cnt = np.diff(net["start"])
         bound = sum(cnt[net["nb_idx"][net["nb_off"][i]:net["nb_off"][i + 1]]].sum()
                     for i in net["ni"])
-        assert net["n_inter"] <= bound
-        assert _k.interaction_bound(net["start"], net["nb_off"], net["nb_idx"]) == bound
+        lower = sum(np.maximum(cnt[net["nb_idx"][net["nb_off"][i]:net["nb_off"][i + 1]]] - 1,
+                               0).sum() for i in net["ni"])
+        exact = _k.count_interactions(net["ni"], net["nk"], net["start"], net["nb_off"],
+                                      net["nb_idx"])
+        assert lower <= exact <= bound and net["n_inter"] <= bound
+        assert _k.interaction_bounds(net["start"], net["nb_off"], net["nb_idx"]) == (lower,
+                                                                                     bound)
         if p["similarity_gate"] is None and not p["max_candidates"]:
             assert (net["n_inter"], bound) == brute_force_interactions(problem[0], problem[1], p)
 
@@ -149,7 +154,7 @@ class TestCountStopsAtTheLimit:
             np.float32)
         hopmatch.hopfield_match(pts[:50], pts[:50] - [10, 0], desc[:50], desc[:50],
                                 max_disparity=20)  # compiled and cached before timing
-        t0 = time.perf_counter()
+        t0 = time.process_time()  # CPU seconds, every thread: steady under load
         with pytest.raises(BudgetExceededError, match="max_interactions=100000000") as exc:
             hopmatch.hopfield_match(pts, pts - [10, 0], desc, desc, max_disparity=20)
-        assert time.perf_counter() - t0 < 1.0 and exc.value.argument == "max_interactions"
+        assert time.process_time() - t0 < 1.0 and exc.value.argument == "max_interactions"
