@@ -10,6 +10,17 @@ For each scene, the default detector's keypoints and descriptors go through
 band). Rectified pairs should measure well below the 2 px threshold with most look-alikes
 in the band; shifted ones about their shift with almost none in it.
 
+``--wide`` measures, for each scene, what ``match_stereo``'s default (``rectified=None``)
+decides on: the share of the keypoints the network keeps on the rows
+(``result.passes == 0``; the wide check runs below ``RECTIFICATION_SUSPICIOUS``, or below
+``UNRECTIFIED_SUSPICIOUS`` when fewer than ``UNRECTIFIED_ROWS_SHARE`` of the row-offset
+prior's look-alikes lie on their rows: "on their rows", ``vertical.rows_share_of``), and
+``wide_rectification_evidence`` (64 rows, the disparity range the rows were searched in;
+cells as above, in-band share below ``UNRECTIFIED_MAX_IN_BAND`` switches) with 100 points
+and with 100 then 300, with its time, on the rectified pair and on its right image
+rotated 5 degrees, shifted 30 px down and scaled 1.03 (``cv2.warpAffine``); with
+``--chessboards``, of those pairs.
+
 ``--chessboards`` measures the rectified chessboard pairs of
 ``../shared/data/opencv_stereo_calib`` (calibrated as in ``examples/stereo_calibration.py``)
 instead: low-texture scenes where many look-alikes are wrong.
@@ -21,6 +32,7 @@ instead: low-texture scenes where many look-alikes are wrong.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -30,7 +42,15 @@ import numpy as np
 
 import hopmatch
 from hopmatch import datasets
-from hopmatch.matching.diagnostics import RECTIFICATION_RATIO, rectification_evidence
+from hopmatch.matching.diagnostics import (
+    RECTIFICATION_RATIO,
+    RECTIFICATION_SAMPLE,
+    STEREO_SAMPLE,
+    rectification_evidence,
+    wide_rectification_evidence,
+)
+from hopmatch.matching.disparity_range import search_range
+from hopmatch.matching.vertical import prior_look_alikes, rows_share_of
 from hopmatch.stereo import rectify
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -58,12 +78,57 @@ def pairs(chessboards: bool, smoke: bool = False):
         yield f"chessboard {i}", left_r, right_r
 
 
+def far_off(image):
+    """``image`` rotated 5 degrees about its centre, shifted 30 px down, scaled 1.03."""
+    h, w = image.shape[:2]
+    A = cv2.getRotationMatrix2D(((w - 1) / 2, (h - 1) / 2), 5.0, 1.03)
+    A[1, 2] += 30
+    return cv2.warpAffine(image, A, (w, h), flags=cv2.INTER_LINEAR)
+
+
+def wide_table(det, smoke: bool, chessboards: bool) -> None:
+    """The ``--wide`` table (of the rectified chessboard pairs with ``chessboards``)."""
+    print("| scene | kept on the rows | on their rows | rectified: 100 | ms | 100, 300 | ms | "
+          "far off: on their rows | 100 | ms | 100, 300 | ms |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for name, left, right_image in pairs(chessboards, smoke=smoke):
+        res = hopmatch.match_stereo(left, right_image, rectified=True)
+        kept = (res.passes == 0).sum() / min(len(res.points_left), res.n_detected_right)
+        config = res.network.config  # the range the rows were searched in
+        kl, dl = det.detectAndCompute(left)
+        pl = cv2.KeyPoint_convert(kl)
+        cells = [f"{kept:.1%}"]
+        for right in (right_image, far_off(right_image)):
+            kr, dr = det.detectAndCompute(right)
+            pr = cv2.KeyPoint_convert(kr)
+            # the look-alikes of the row-offset prior, in the range it searches
+            looks = prior_look_alikes(pl, pr, dl, dr, *search_range(
+                dataclasses.replace(config, max_disparity=None, min_disparity=0.0),
+                left.shape[1::-1], pl, pr), config.max_vertical)
+            cells.append(f"{rows_share_of(looks, config.max_vertical):.2f}")
+            for sizes in ((STEREO_SAMPLE,), (STEREO_SAMPLE, RECTIFICATION_SAMPLE)):
+                t0 = time.perf_counter()
+                ev = wide_rectification_evidence(pl, pr, dl, dr, config.min_disparity,
+                                                 config.max_disparity, config.max_vertical,
+                                                 sizes)
+                took = time.perf_counter() - t0
+                cells.append("n/a" if ev is None else f"{ev[0]:.2f} ({ev[1]}, {ev[2]:.0%})")
+                cells.append(f"{1e3 * took:.0f}")
+        print(f"| {name} | " + " | ".join(cells) + " |")
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--chessboards", action="store_true",
                         help="the rectified chessboard pairs of ../shared/data instead")
+    parser.add_argument("--wide", action="store_true",
+                        help="what match_stereo's rectified=None decides on (docs/pipelines.md)")
     args = add_smoke_option(parser).parse_args(argv)
     det = hopmatch.DericheMoravecDetector()
+    if args.wide:
+        hopmatch.setNumThreads(1)
+        cv2.setNumThreads(1)
+        return wide_table(det, args.smoke, args.chessboards)
     print(f"Clear look-alike ratio: {RECTIFICATION_RATIO}\n")
     print("| scene | 0 px | 3 px | 8 px | check time ms |")
     print("|---|---:|---:|---:|---:|")

@@ -342,7 +342,10 @@ def demo(ctx, out):
                    "range from the pair (match_stereo(..., rectified=False)) and write F to "
                    "fundamental_matrix.txt. LEFT and RIGHT may then differ in size. Cannot "
                    "be combined with --fundamental-matrix, --min-disparity or "
-                   "--max-disparity; --vertical-threshold defaults to 0.75 px.")
+                   "--max-disparity; --vertical-threshold defaults to 0.75 px. Without it, "
+                   "a pair of one height found far from rectified (a warning says so) is "
+                   "matched this way too, unless a disparity range or --preset paper is "
+                   "given.")
 @click.option("--format", "fmt", type=click.Choice(["csv", "json"]), default="csv",
               show_default=True, help="matches.csv or matches.json.")
 @click.option("--no-draw", is_flag=True, help="Do not write matches.png and disparity.png.")
@@ -401,13 +404,16 @@ def match(ctx, left, right, out, fundamental_file, unrectified, fmt, no_draw, pl
         t_warm = hopmatch.warmup()
         status("detecting and matching")
         t0 = time.perf_counter()
-        result = match_stereo(img_l, img_r, record_energy=plot_energy, detector=detector,
-                              matcher=matcher, fundamental_matrix=fundamental,
-                              rectified=not unrectified)
+        # the parameters as keywords, not the instances: a pair that turns out far from
+        # rectified then gets the unrectified defaults too (vertical_threshold)
+        result = match_stereo(img_l, img_r, record_energy=plot_energy,
+                              fundamental_matrix=fundamental,
+                              rectified=False if unrectified else None, **pipeline)
+        estimated = result.geometry is not None
         t_match = time.perf_counter() - t0
         t1 = time.perf_counter()
         outputs.add_text(f"matches.{fmt}", _match_table(result, fmt))
-        if unrectified and result.fundamental_matrix is not None:
+        if estimated and result.fundamental_matrix is not None:
             outputs.add_text("fundamental_matrix.txt", fundamental_text(result))
         if not no_draw:
             _draw_match_images(outputs, img_l, img_r, result)
@@ -427,10 +433,10 @@ def match(ctx, left, right, out, fundamental_file, unrectified, fmt, no_draw, pl
                         "max_disparity_used": used, "record_energy": plot_energy,
                         "fundamental_matrix": (None if fundamental is None
                                                else fundamental.tolist()),
-                        "unrectified": unrectified,
+                        "unrectified": unrectified, "geometry_estimated": estimated,
                         "format": fmt, "draw": not no_draw, "figures": figures},
             counts=counts,
-            **({"geometry": geometry_json(result)} if unrectified else {}),
+            **({"geometry": geometry_json(result)} if estimated else {}),
             energy=float(result.network.energy),
             timings_ms={"read": ms(t_read), "warmup": ms(t_warm),
                         **{k: ms(v) for k, v in result.timings.items()},
@@ -444,7 +450,7 @@ def match(ctx, left, right, out, fundamental_file, unrectified, fmt, no_draw, pl
         say(ctx, f"matches: {counts['matches']}")
         if counts["matches"]:
             say(ctx, f"median disparity: {float(np.median(result.disparities)):g} px")
-        if unrectified:
+        if estimated:
             say(ctx, geometry_line(result))
         _say_times(ctx, result, t_match, t_warm)
         say(ctx, f"output: {outputs.path} ({', '.join(outputs.names)})")

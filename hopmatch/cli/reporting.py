@@ -130,9 +130,17 @@ def plain_text(text: str, labels: dict | None = None) -> str:
 #: Python advice of the library's warnings, and what to do on the command line instead
 #: (applied in order by :func:`cli_text`; the generic names come last).
 CLI_ADVICE = (
-    ("rectify the pair (hopmatch.stereo.rectify) or call setFundamentalMatrix(F)",
-     "rectify the images first (cv2.stereoRectify and cv2.remap, with the calibration) or "
-     "give the pair's fundamental matrix with --fundamental-matrix FILE"),
+    ("rectify the pair (hopmatch.stereo.rectify), call setFundamentalMatrix(F), or let "
+     "match_stereo estimate its geometry (rectified=False)",
+     "rectify the images first (cv2.stereoRectify and cv2.remap, with the calibration), "
+     "give the pair's fundamental matrix with --fundamental-matrix FILE, or let hopmatch "
+     "estimate it with --unrectified"),
+    ("its epipolar geometry estimated from the images (rectified=False; "
+     "result.fundamental_matrix, result.geometry); pass rectified=True to search its rows "
+     "anyway",
+     "its epipolar geometry estimated from the images as --unrectified does (F in "
+     "fundamental_matrix.txt); give a disparity range (--max-disparity) to search its rows "
+     "anyway"),
     ("rectify the pair first or call setFundamentalMatrix(F)",
      "rectify the images first (cv2.stereoRectify and cv2.remap), or give the pair's "
      "fundamental matrix with --fundamental-matrix FILE"),

@@ -32,6 +32,19 @@ RECTIFICATION_MAX_IN_BAND = 0.15
 #: the 13 shared scenes with ground truth the defaults keep 4.5 % (KITTI) to 48 %).
 RECTIFICATION_SUSPICIOUS = 0.03
 
+#: ``match_stereo(..., rectified=None)`` matches a pair that kept few matches as
+#: unrectified when fewer than this share of its clear look-alikes within STEREO_WINDOW rows
+#: lie in the band (rectified shared scenes: 86-100 %, rotated 5 degrees and shifted 30 px:
+#: 0-6 %; benchmarks/rectification_check.py --wide).
+UNRECTIFIED_MAX_IN_BAND = 0.5
+#: ... checked (in a band of STEREO_WINDOW rows) when the network kept fewer matches than
+#: this share of the keypoints (the rectified shared scenes keep 5.0 % (KITTI) to 48.5 %).
+UNRECTIFIED_SUSPICIOUS = 0.10
+#: ... when fewer than this share of the row-offset prior's clear look-alikes (within 4 rows)
+#: lie within max(1, max_vertical) px of their row (rectified shared scenes: 0.70 (KITTI) to
+#: 0.98; rotated 5 degrees and shifted 30 px: at most 0.38; rectification_check.py --wide).
+UNRECTIFIED_ROWS_SHARE = 0.5
+
 # Stereo-pair check: left points sampled, the 2-D window searched around each (rows and
 # disparities beyond the range), the distance a look-alike must be within (the default
 # similarity gate), and the fractions below which the pair is not called a stereo pair.
@@ -112,6 +125,24 @@ def rectification_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity, m
             float(np.mean(dy <= max(1.0, max_vertical))))
 
 
+def wide_rectification_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity,
+                                max_vertical, sample_sizes=(STEREO_SAMPLE,)):
+    """:func:`rectification_evidence` in a band of :data:`STEREO_WINDOW` rows: wide enough
+    for the shifts (tens of px) and rotations (a few degrees) of a pair that was never
+    rectified, which the narrower band misses or sees only where the rotation brings the
+    rows together. Up to ``sample_sizes[0]`` left points, then (too few clear look-alikes
+    among them) the next size."""
+    for sample_size in sample_sizes:
+        found = clear_look_alikes(q_pts, t_pts, qd, td, min_disparity, max_disparity,
+                                  max(STEREO_WINDOW, 4.0 * max_vertical), sample_size)
+        if found is not None:
+            qi, ti = found
+            dy = np.abs(q_pts[qi, 1].astype(np.float64) - t_pts[ti, 1])
+            return (float(np.median(dy)), int(len(qi)),
+                    float(np.mean(dy <= max(1.0, max_vertical))))
+    return None
+
+
 def stereo_pair_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity):
     """How much of the left image has a look-alike in the right one, searched in 2-D.
 
@@ -164,29 +195,78 @@ def warn_geometry(query_size, train_size, fundamental, config) -> None:
              DisparityRangeWarning)
 
 
-def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config) -> bool:
+class LooksUnrectifiedError(Exception):
+    """Raised by :func:`warn_if_unrectified` (``raise_unrectified=True``) instead of its
+    :class:`~hopmatch.errors.UnrectifiedPairWarning`, for a caller that matches such a pair
+    another way (``match_stereo`` with ``rectified=None``). ``evidence``: what the check
+    found, as a phrase ("the clearest look-alikes of ... lie a median ... px above or
+    below them (max_vertical=...)")."""
+
+    def __init__(self, evidence: str):
+        super().__init__(evidence)
+        self.evidence = evidence
+
+
+def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config,
+                        raise_unrectified: bool = False,
+                        rows_share: float | None = None) -> bool:
     """Warn (:class:`~hopmatch.errors.UnrectifiedPairWarning`) when the network kept few
     matches (below :data:`RECTIFICATION_SUSPICIOUS` of the keypoints) and the clearest
     look-alikes of the left points lie off their rows (:func:`rectification_evidence`), or
     (:class:`NotStereoPairWarning`) when almost no left point has a look-alike anywhere
     near its row (:func:`stereo_pair_evidence`): the images are not two views of one
     scene. One warning at most, and True when it was given; rectified pairs with many
-    matches do not pay for either check."""
-    if n_matches >= RECTIFICATION_SUSPICIOUS * min(len(q_pts), len(t_pts)):
+    matches do not pay for either check.
+
+    With ``raise_unrectified`` (``match_stereo(..., rectified=None)``) a pair without
+    ``fundamental`` that kept fewer matches than :data:`RECTIFICATION_SUSPICIOUS` of the
+    keypoints, or fewer than :data:`UNRECTIFIED_SUSPICIOUS` when fewer than
+    :data:`UNRECTIFIED_ROWS_SHARE` of the row-offset prior's look-alikes lie on their rows
+    (``rows_share``, :func:`~hopmatch.matching.vertical.rows_share_of`), is also checked
+    in a band of :data:`STEREO_WINDOW` rows
+    (:func:`wide_rectification_evidence`: fewer than :data:`UNRECTIFIED_MAX_IN_BAND` of
+    its look-alikes in the band, and their median offset above ``max(2, 2 max_vertical)``
+    px, as for the warning; up to :data:`STEREO_SAMPLE` points, and
+    :data:`RECTIFICATION_SAMPLE` below :data:`RECTIFICATION_SUSPICIOUS`), and a pair
+    found off its rows that passes the stereo-pair check raises
+    :class:`LooksUnrectifiedError` instead of the warning."""
+    n_points = min(len(q_pts), len(t_pts))
+    few = n_matches < RECTIFICATION_SUSPICIOUS * n_points
+    may_raise = (raise_unrectified and fundamental is None
+                 and (few or (n_matches < UNRECTIFIED_SUSPICIOUS * n_points
+                              and rows_share is not None
+                              and rows_share < UNRECTIFIED_ROWS_SHARE)))
+    if not (few or may_raise) or not len(qd) or not len(td):
         return False
-    if not len(qd) or not len(td):
-        return False
-    if fundamental is None:
+    off_rows = None
+    if fundamental is None and few:
         ev = rectification_evidence(q_pts, t_pts, qd, td, config.min_disparity,
                                     config.max_disparity, config.max_vertical)
         if (ev is not None and ev[0] > max(2.0, 2.0 * config.max_vertical)
                 and ev[2] < RECTIFICATION_MAX_IN_BAND):
-            warn(f"the pair does not look rectified: the clearest look-alikes of {ev[1]} "
-                 f"sampled left points lie a median {ev[0]:.1f} px above or below them "
-                 f"(max_vertical={config.max_vertical:g}), so few true matches can be found; "
-                 "rectify the pair (hopmatch.stereo.rectify) or call setFundamentalMatrix(F)",
-                 UnrectifiedPairWarning)
-            return True
+            off_rows = (f"the clearest look-alikes of {ev[1]} sampled left points lie a "
+                        f"median {ev[0]:.1f} px above or below them "
+                        f"(max_vertical={config.max_vertical:g})")
+    if may_raise and off_rows is None:
+        # a pair that kept very few matches may look further (the rectified shared scenes
+        # keep 5 % or more, and pay for the first 100 points only)
+        sizes = (STEREO_SAMPLE, RECTIFICATION_SAMPLE) if few else (STEREO_SAMPLE,)
+        wide = wide_rectification_evidence(q_pts, t_pts, qd, td, config.min_disparity,
+                                           config.max_disparity, config.max_vertical, sizes)
+        if (wide is not None and wide[2] < UNRECTIFIED_MAX_IN_BAND
+                and wide[0] > max(2.0, 2.0 * config.max_vertical)):
+            off_rows = (f"of the clearest look-alikes of {wide[1]} sampled left points within "
+                        f"{STEREO_WINDOW:g} rows, {wide[2]:.0%} lie within "
+                        f"max(1, max_vertical={config.max_vertical:g}) px of their row (a "
+                        f"median {wide[0]:.1f} px off it)")
+    if off_rows is not None and not raise_unrectified:
+        warn(f"the pair does not look rectified: {off_rows}, so few true matches can be "
+             "found; rectify the pair (hopmatch.stereo.rectify), call "
+             "setFundamentalMatrix(F), or let match_stereo estimate its geometry "
+             "(rectified=False)", UnrectifiedPairWarning)
+        return True
+    if off_rows is None and not few:
+        return False
     ratio = contrast_ratio(qd, td)
     gain = "" if ratio is None or 1 / FEW_MATCHES_CONTRAST <= ratio <= FEW_MATCHES_CONTRAST \
         else (f" (the right image's windows have {ratio:.3g} times the contrast of the left "
@@ -205,6 +285,8 @@ def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config) ->
              "); to find an object in a scene (find_obj.py), use SIFT or ORB with "
              f"cv2.findHomography instead{gain}", NotStereoPairWarning)
         return True
+    if off_rows is not None:  # raise_unrectified: two views of one scene, off their rows
+        raise LooksUnrectifiedError(off_rows)
     return False
 
 

@@ -49,7 +49,7 @@ from .similarity import (
     similarity_distance,
     window_contrasts,
 )
-from .vertical import RowOffsetPrior, row_offset_prior
+from .vertical import RowOffsetPrior, prior_look_alikes, prior_of_look_alikes, rows_share_of
 
 
 @dataclass(frozen=True)
@@ -232,12 +232,15 @@ def run_hopfield_network(left, right, desc_l, desc_r, config: MatcherConfig, *, 
 
 def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: MatcherConfig, *,
                mask=None, fundamental=None, record_energy: bool = False,
-               descriptors_checked: bool = False) -> NetworkResult:
+               descriptors_checked: bool = False,
+               raise_unrectified: bool = False) -> NetworkResult:
     """Match the descriptors of a checked pair: check the descriptors (unless
     ``descriptors_checked``: float32 or uint8 C-contiguous rows already) and the mask,
     resolve the disparity range, check every budget, warn about the geometry (SPEC-free
     checks of docs/robustness.md), run the network and return its result, whose ``config``
-    holds the parameters used. ``fundamental``: None or a checked 3 x 3 float64 matrix."""
+    holds the parameters used. ``fundamental``: None or a checked 3 x 3 float64 matrix.
+    ``raise_unrectified``: raise :class:`~.diagnostics.LooksUnrectifiedError` where the
+    rectification check would warn."""
     q_pts, t_pts = pair.query_points, pair.train_points
     if descriptors_checked:
         qd, td = query_descriptors, train_descriptors
@@ -258,11 +261,13 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     mask = as_mask(mask, (len(q_pts), len(t_pts)), "mask", of="(n_query, n_train)")
     check_energy_trace(config.max_iterations, record_energy)
     check_neighbour_budget(q_pts, config)
-    prior, t_search = None, t_pts
+    prior, rows_share, t_search = None, None, t_pts
     if fundamental is None and config.vertical_model == "plane" and len(qd) and len(td):
-        prior = row_offset_prior(q_pts, t_pts, qd, td,
-                                 *search_range(config, pair.query_size, q_pts, t_pts),
-                                 config.max_vertical)
+        look_alikes = prior_look_alikes(q_pts, t_pts, qd, td,
+                                        *search_range(config, pair.query_size, q_pts, t_pts),
+                                        config.max_vertical)
+        prior = prior_of_look_alikes(q_pts, look_alikes)
+        rows_share = rows_share_of(look_alikes, config.max_vertical)
         if prior is not None:
             t_search = prior.aligned(t_pts)
     found = resolve_disparity_range(config, q_pts, t_search, qd, td, pair.query_size,
@@ -279,7 +284,7 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     # one warning for one cause: a pair diagnosed as not rectified or not a stereo pair
     # also defeats the range search, and the diagnosis says more than the others would
     if not warn_if_unrectified(len(result.query_idx), q_pts, t_pts, qd, td, fundamental,
-                               config):
+                               config, raise_unrectified, rows_share):
         if not warn_if_few_matches(result, q_pts, t_pts, qd, td, config,
                                    range_found=found.source != "fallback"):
             warn_fallback(found, len(result.query_idx))

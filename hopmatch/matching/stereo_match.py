@@ -12,9 +12,15 @@ import numpy as np
 from .._threads import resolve_threads, run_both, using_threads
 from .._validate import as_fundamental_matrix, check_coordinate_range
 from .._warnings import warn
-from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
+from ..errors import (
+    ImageSizeWarning,
+    InvalidArgumentError,
+    InvalidTypeError,
+    UnrectifiedPairWarning,
+)
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
 from .confidence import confidence_distances, fields_of_distances
+from .diagnostics import LooksUnrectifiedError
 from .geometry import EpipolarGeometry, GeometryWarning, transform_points
 from .guided import GuidedMatches, guided_pass, guided_rounds
 from .matcher import HopfieldMatcher, dmatches
@@ -176,7 +182,7 @@ class StereoMatchResult:
 
 
 def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_matrix=None,
-                 rectified: bool = True, record_energy: bool = False,
+                 rectified: bool | None = None, record_energy: bool = False,
                  detector: DericheMoravecDetector | None = None,
                  matcher: HopfieldMatcher | None = None, threads: int | None = None,
                  **params) -> StereoMatchResult:
@@ -192,7 +198,14 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     fundamental_matrix : (3, 3) array-like, optional
         Match an unrectified pair along epipolar lines (``x_r^T F x_l = 0``, as
         ``cv2.findFundamentalMat`` returns it) instead of image rows.
-    rectified : bool
+    rectified : bool or None
+        None (default): the pair's rows are searched, as for True, unless the rectification
+        check (docs/robustness.md) finds the pair far from rectified; it is then matched as
+        with False, and an :class:`~hopmatch.errors.UnrectifiedPairWarning` says so. Only
+        without ``fundamental_matrix``, a disparity range (``min_disparity`` or
+        ``max_disparity``) and ``preset="paper"``: with any of them None is True.
+        True: always the rows (the images must be rectified; a far-off pair gets the
+        warning and few matches).
         False for a pair whose geometry is unknown (two photos): the epipolar geometry and
         the disparity range are estimated from the pair itself, the right image is
         aligned with the left one and the network searches the epipolar band
@@ -267,14 +280,19 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                                                                           "match_stereo")
     fundamental = as_fundamental_matrix(fundamental_matrix, "fundamental_matrix",
                                         optional=True)
-    if not isinstance(rectified, (bool, np.bool_)):
-        raise InvalidTypeError(f"`rectified` must be True or False, got {rectified!r}")
-    if not rectified:
-        if matcher is None and "vertical_threshold" not in match_params:
-            config = dataclasses.replace(config, vertical_threshold=UNRECTIFIED_VERTICAL)
+    if rectified is not None and not isinstance(rectified, (bool, np.bool_)):
+        raise InvalidTypeError(f"`rectified` must be None, True or False, got {rectified!r}")
+    unrectified_config = config
+    if matcher is None and "vertical_threshold" not in match_params:
+        unrectified_config = dataclasses.replace(config,
+                                                 vertical_threshold=UNRECTIFIED_VERTICAL)
+    if rectified is not None and not rectified:
         with using_threads(threads):
-            return _match_unrectified(left, right, detector, config, fundamental, mask_left,
-                                      mask_right, record_energy)
+            return _match_unrectified(left, right, detector, unrectified_config, fundamental,
+                                      mask_left, mask_right, record_energy)
+    may_switch = (rectified is None and fundamental is None and config.max_disparity is None
+                  and "min_disparity" not in match_params and config.preset != "paper"
+                  and (matcher is None or config.min_disparity == 0.0))
 
     def detect(image, mask, side):
         t0 = time.perf_counter()
@@ -286,17 +304,25 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         (found_l, t_l), (found_r, t_r) = run_both(lambda: detect(left, mask_left, "left"),
                                                   lambda: detect(right, mask_right, "right"),
                                                   threads)
-        return match_detected(found_l, found_r, config,
-                              keypoint_size=float(detector.getWindowSize()),
-                              fundamental=fundamental, record_energy=record_energy,
-                              timings={"detect_left": t_l, "detect_right": t_r},
-                              threads=threads)
+        try:
+            return match_detected(found_l, found_r, config,
+                                  keypoint_size=float(detector.getWindowSize()),
+                                  fundamental=fundamental, record_energy=record_energy,
+                                  timings={"detect_left": t_l, "detect_right": t_r},
+                                  threads=threads, raise_unrectified=may_switch)
+        except LooksUnrectifiedError as found:
+            warn(f"the pair does not look rectified: {found.evidence}, so it was matched as "
+                 "an unrectified pair, its epipolar geometry estimated from the images "
+                 "(rectified=False; result.fundamental_matrix, result.geometry); pass "
+                 "rectified=True to search its rows anyway", UnrectifiedPairWarning)
+            return _match_unrectified(left, right, detector, unrectified_config, None,
+                                      mask_left, mask_right, record_energy)
 
 
 def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
                    fundamental=None, record_energy: bool = False,
-                   timings: dict | None = None,
-                   threads: int | None = None) -> StereoMatchResult:
+                   timings: dict | None = None, threads: int | None = None,
+                   raise_unrectified: bool = False) -> StereoMatchResult:
     """The matching half of :func:`match_stereo`, on what detection gave for each image.
 
     ``left`` and ``right`` are ``(points, responses, descriptors, gradient, grey)`` as
@@ -305,6 +331,8 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     the matcher's parameters; ``fundamental`` None or a checked 3 x 3 matrix. Runs the
     network, then (rectified pairs of one size) the guided pass and the refinement, these
     two in up to ``threads`` threads (None: :func:`hopmatch._threads.current_threads`).
+    ``raise_unrectified``: raise :class:`~.diagnostics.LooksUnrectifiedError` where the
+    rectification check would warn (:func:`match_pair`).
     """
     pts_l, resp_l, desc_l, g_l, gray_l = left
     pts_r, resp_r, desc_r, g_r, gray_r = right
@@ -314,7 +342,8 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     if fundamental is None and shape_l[0] != shape_r[0]:
         raise InvalidArgumentError(
             f"`left` and `right` must have the same height (a rectified pair), got "
-            f"{shape_l[0]} and {shape_r[0]}; for an unrectified pair pass fundamental_matrix"
+            f"{shape_l[0]} and {shape_r[0]}; for an unrectified pair pass rectified=False "
+            "(its geometry estimated) or fundamental_matrix"
         )
     size_l, size_r = shape_l[::-1], shape_r[::-1]
     if fundamental is None and shape_l[1] != shape_r[1]:
@@ -327,7 +356,8 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     check_coordinate_range(pts_r, "right")
     pair = PairInfo(pts_l, pts_r, size_l, size_r)
     net = match_pair(pair, desc_l, desc_r, config, fundamental=fundamental,
-                     record_energy=record_energy, descriptors_checked=True)
+                     record_energy=record_energy, descriptors_checked=True,
+                     raise_unrectified=raise_unrectified)
     t3 = time.perf_counter()
     timings["match"] = t3 - t2
     result = StereoMatchResult(

@@ -165,6 +165,13 @@ def row_offset_prior(q_pts, t_pts, qd, td, min_disparity, max_disparity,
     :data:`PRIOR_MIN_SHIFT` px at a tenth of the left points or more. None otherwise (a
     well rectified pair: the network searches the plain band, as before).
     """
+    return prior_of_look_alikes(q_pts, prior_look_alikes(q_pts, t_pts, qd, td, min_disparity,
+                                                         max_disparity, max_vertical))
+
+
+def prior_look_alikes(q_pts, t_pts, qd, td, min_disparity, max_disparity, max_vertical):
+    """The clear look-alikes :func:`row_offset_prior` is measured on: ``(left, dy,
+    disparity)`` (float64; ``dy = y_left - y_right``), or None when too few are clear."""
     band = max(PRIOR_BAND, 4.0 * max_vertical)
     sample = PRIOR_SAMPLE
     while True:
@@ -178,7 +185,22 @@ def row_offset_prior(q_pts, t_pts, qd, td, min_disparity, max_disparity,
         return None
     qi, ti = found
     left = q_pts[qi].astype(np.float64)
-    dy = left[:, 1] - t_pts[ti, 1]
+    return left, left[:, 1] - t_pts[ti, 1], left[:, 0] - t_pts[ti, 0]
+
+
+def rows_share_of(look_alikes, max_vertical) -> float:
+    """The share of the look-alikes :func:`prior_look_alikes` found that lie within
+    ``max(1, max_vertical)`` px of their row (0 when it found too few)."""
+    if look_alikes is None:
+        return 0.0
+    return float(np.mean(np.abs(look_alikes[1]) <= max(1.0, max_vertical)))
+
+
+def prior_of_look_alikes(q_pts, look_alikes) -> RowOffsetPrior | None:
+    """:func:`row_offset_prior` of the look-alikes :func:`prior_look_alikes` found."""
+    if look_alikes is None:
+        return None
+    left, dy, disparity = look_alikes
     offset = fit_row_offset(left, dy)
     constant = median_offset(dy)
     if tight_share(constant, left, dy) >= tight_share(offset, left, dy) - PRIOR_PLANE_GAIN:
@@ -189,4 +211,4 @@ def row_offset_prior(q_pts, t_pts, qd, td, min_disparity, max_disparity,
     gain = np.mean(residual <= PRIOR_TIGHT) - np.mean(np.abs(dy) <= PRIOR_TIGHT)
     if gain < PRIOR_MIN_GAIN or np.percentile(np.abs(offset.at(q_pts)), 90) < PRIOR_MIN_SHIFT:
         return None
-    return RowOffsetPrior(offset, float(np.median(left[:, 0] - t_pts[ti, 0])))
+    return RowOffsetPrior(offset, float(np.median(disparity)))

@@ -272,6 +272,20 @@ def test_rectification_check_smoke():
         assert_lines(out, table_row(r"middlebury/tsukuba", cell, cell, cell, r"\d+"))
 
 
+def test_rectification_check_wide_smoke():
+    """docs/robustness.md and docs/pipelines.md quote its table: the share kept on the
+    rows and the wide check on the rectified and the far-off pair."""
+    out = run_script("rectification_check.py", "--wide")
+    cell = r"(\d+\.\d\d \(\d+, \d+%\)|n/a)"
+    assert_lines(
+        out,
+        r"\| scene \| kept on the rows \| on their rows \| rectified: 100 \| ms \| 100, 300 \| "
+        r"ms \| far off: on their rows \| 100 \| ms \| 100, 300 \| ms \|",
+        table_row("motorcycle", r"\d+\.\d%", r"\d\.\d\d", *(cell, r"\d+") * 2,
+                  r"\d\.\d\d", *(cell, r"\d+") * 2),
+    )
+
+
 def test_rectification_check_chessboards_smoke(shared_data):
     out = run_script("rectification_check.py", "--chessboards")
     cell = r"(\d+\.\d\d \(\d+, \d+%\)|n/a)"

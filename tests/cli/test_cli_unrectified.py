@@ -81,12 +81,25 @@ def test_match_unrectified(rotated_pair, tmp_path):
     assert np.median(dist) < 0.5
 
 
-def test_match_without_unrectified_finds_little_on_that_pair(rotated_pair, tmp_path):
+def test_match_without_unrectified_finds_that_pair_off_its_rows(rotated_pair, tmp_path):
+    """Without --unrectified the pair is found far from rectified, said so in CLI terms,
+    and matched as --unrectified matches it; with a disparity range its rows are searched
+    and far less is found."""
     left, right, _ = rotated_pair
     plain = run("match", left, right, "--out", tmp_path / "plain")
     assert plain.returncode == 0, plain.stderr
+    line = plain.stderr.strip()
+    assert line.startswith("hopmatch: warning: the pair does not look rectified") \
+        and "as --unrectified does" in line and "\n" not in line
     with_flag = run("match", left, right, "--out", tmp_path / "flag", "--unrectified")
-    assert int(printed(plain.stdout, "matches")) < int(printed(with_flag.stdout, "matches")) / 3
+    assert printed(plain.stdout, "matches") == printed(with_flag.stdout, "matches")
+    assert (tmp_path / "plain" / "fundamental_matrix.txt").read_text() \
+        == (tmp_path / "flag" / "fundamental_matrix.txt").read_text()
+    info = json.loads((tmp_path / "plain" / "run.json").read_text())
+    assert info["parameters"]["geometry_estimated"] and not info["parameters"]["unrectified"]
+    rows = run("match", left, right, "--out", tmp_path / "rows", "--max-disparity", 40)
+    assert rows.returncode == 0, rows.stderr
+    assert int(printed(rows.stdout, "matches")) < int(printed(with_flag.stdout, "matches")) / 3
 
 
 def test_unrectified_lets_the_sizes_differ(rotated_pair, tmp_path):

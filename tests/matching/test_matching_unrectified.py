@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import cv2
 import numpy as np
 import pytest
@@ -121,13 +123,70 @@ def test_a_perturbed_middlebury_pair(shared_data):
     assert correct.sum() >= 1500  # the rectified pair with its range: 1979
 
 
+@pytest.mark.parametrize("angle, dy, scale", [(5.0, 30.0, 1.03), (-5.0, -30.0, 0.97)])
+def test_the_defaults_match_a_far_off_pair_as_unrectified(angle, dy, scale):
+    """rectified=None (the default) finds the perturbed pair off its rows, says so, and
+    matches it as rectified=False would; rectified=True keeps the rows (few matches, the
+    old warning); a rectified pair is searched along its rows, silently."""
+    from hopmatch.errors import HopmatchWarning, UnrectifiedPairWarning
+
+    left, right, warped, gt, A = perturbed_box_pair(angle, dy, scale)
+    with pytest.warns(UnrectifiedPairWarning, match="matched as an unrectified pair"):
+        auto = hopmatch.match_stereo(left, warped)
+    explicit = hopmatch.match_stereo(left, warped, rectified=False)
+    assert auto.geometry is not None and auto.geometry.search == explicit.geometry.search
+    np.testing.assert_array_equal(auto.matched_left, explicit.matched_left)
+    np.testing.assert_array_equal(auto.matched_right, explicit.matched_right)
+    assert auto.network.config.vertical_threshold == u.UNRECTIFIED_VERTICAL
+    t, known = perturbed_truth(auto.matched_left, gt, A)
+    correct = known & (np.hypot(*(auto.matched_right - t).T) <= 1)
+    assert correct.sum() / known.sum() >= 0.97
+    with pytest.warns(UnrectifiedPairWarning, match=r"rectified=False\)$"):
+        rows = hopmatch.match_stereo(left, warped, rectified=True)
+    assert rows.geometry is None and len(rows.query_idx) < 0.2 * len(auto.query_idx)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", HopmatchWarning)
+        plain = hopmatch.match_stereo(left, right)
+    assert plain.geometry is None and len(plain.query_idx) > 1000
+
+
+def test_the_defaults_keep_the_rows_when_told_a_range_or_the_paper():
+    """A disparity range, a fundamental matrix or preset="paper" mean rows (or F): the
+    far-off pair is not re-matched, only warned about."""
+    from hopmatch.errors import UnrectifiedPairWarning
+
+    left, _, warped, _, _ = perturbed_box_pair(5.0, 30.0, 1.03)
+    for kwargs in ({"max_disparity": 24}, {"min_disparity": 0.0}):
+        with pytest.warns(UnrectifiedPairWarning, match=r"rectified=False\)$"):
+            res = hopmatch.match_stereo(left, warped, **kwargs)
+        assert res.geometry is None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = hopmatch.match_stereo(left, warped, preset="paper")
+    assert res.geometry is None
+    assert not any("matched as an unrectified" in str(w.message) for w in caught)
+
+
+def test_the_defaults_keep_the_rows_that_the_row_prior_follows():
+    """2 degrees and 8 px: the residual vertical prior follows the rows (docs/method.md),
+    the network keeps its matches, and nothing is re-matched."""
+    left, _, warped, gt, A = perturbed_box_pair(-2.0, -8.0, 0.98)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", hopmatch.errors.UnrectifiedPairWarning)
+        res = hopmatch.match_stereo(left, warped)
+    assert res.geometry is None and res.network.row_prior is not None
+    t, known = perturbed_truth(res.matched_left, gt, A)
+    correct = known & (np.hypot(*(res.matched_right - t).T) <= 1)
+    assert correct.sum() / known.sum() >= 0.97 and correct.sum() > 5000
+
+
 def test_argument_errors():
     img = texture(np.random.default_rng(0), 100)
     with pytest.raises(InvalidArgumentError, match="fundamental_matrix"):
         hopmatch.match_stereo(img, img, rectified=False, fundamental_matrix=np.eye(3))
     with pytest.raises(InvalidArgumentError, match="max_disparity"):
         hopmatch.match_stereo(img, img, rectified=False, max_disparity=20)
-    with pytest.raises(InvalidTypeError, match="rectified"):
+    with pytest.raises(InvalidTypeError, match="rectified` must be None, True or False"):
         hopmatch.match_stereo(img, img, rectified="no")
 
 
