@@ -14,6 +14,7 @@ from .._validate import as_fundamental_matrix, check_coordinate_range
 from .._warnings import warn
 from ..errors import ImageSizeWarning, InvalidArgumentError, InvalidTypeError
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
+from . import halves
 from .confidence import confidence_distances, fields_of_distances
 from .geometry import EpipolarGeometry, GeometryWarning, transform_points
 from .guided import GuidedMatches, guided_pass, guided_rounds
@@ -383,34 +384,67 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
     responses_right = (result.responses_right if k == 0 else
                        np.r_[result.responses_right, np.zeros(k, np.float32)])
     refinement = None
+    passes = np.r_[np.full(len(net.query_idx), PASS_NETWORK, np.uint8),
+                   np.full(k, PASS_GUIDED, np.uint8)]
+    distances = net.distances if k == 0 else np.r_[net.distances, gm.distances]
     if config.refine:
         left = pts_l[query_idx]
         yr = left[:, 1].astype(np.float64) - offset.at(left)
+        radius = refine_radius(np.shape(grays[0])[:2] if image_shape is None
+                               else image_shape)
         refinement = refine_disparities(grays[0], grays[1], left,
-                                        points_right[train_idx, 0], yr,
-                                        radius=refine_radius(
-                                            np.shape(grays[0])[:2] if image_shape is None
-                                            else image_shape),
+                                        points_right[train_idx, 0], yr, radius=radius,
                                         threads=threads)
         moved = train_idx[refinement.ok]
         points_right = points_right.copy() if points_right is pts_r else points_right
         points_right[moved, 0] = refinement.x[refinement.ok]
         points_right[moved, 1] = yr[refinement.ok]
-    t2 = time.perf_counter()
-    timings = dict(result.timings, match=result.timings["match"] + (t2 - t0))
-    match_timings = dict(result.match_timings, guided=t1 - t0, refine=t2 - t1)
-    passes = np.r_[np.full(len(net.query_idx), PASS_NETWORK, np.uint8),
-                   np.full(k, PASS_GUIDED, np.uint8)]
-    distances = net.distances if k == 0 else np.r_[net.distances, gm.distances]
-    if refinement is not None:  # one scale for both passes: field and peak curvature
+        # one scale for both passes: field and peak curvature
         u = fields_of_distances(net.distances)
         u = u if k == 0 else np.r_[u, gm.fields]
         distances = confidence_distances(u, refinement.curvature)
+        if halves.HALF_CHECK:  # windows that straddle a depth edge (matching.halves)
+            half = max(halves.HALF_RADIUS, round(halves.HALF_RADIUS * radius / REFINE_RADIUS))
+            drop = halves.straddling(grays[0], grays[1], left, points_right[train_idx],
+                                     radius=half, threads=threads)
+            if drop.any():
+                (query_idx, train_idx, points_right, passes, distances, gm,
+                 refinement) = _without(drop, query_idx, train_idx, points_right, pts_r,
+                                        n_right, passes, distances, gm, refinement)
+                k = 0 if gm is None else len(gm.query_idx)
+                responses_right = responses_right[:n_right + k]
+    t2 = time.perf_counter()
+    timings = dict(result.timings, match=result.timings["match"] + (t2 - t0))
+    match_timings = dict(result.match_timings, guided=t1 - t0, refine=t2 - t1)
     return dataclasses.replace(
         result, points_right=points_right, responses_right=responses_right,
         query_idx=query_idx, train_idx=train_idx, distances=distances.astype(np.float32),
         timings=timings, match_timings=match_timings, passes=passes,
         n_detected_right=n_right, guided=gm, refinement=refinement, row_offset=offset)
+
+
+def _without(drop, query_idx, train_idx, points_right, pts_r, n_right, passes, distances,
+             gm, refinement):
+    """The matches of :func:`beyond_network` but those where ``drop``: the network's
+    detected right points they moved back where they were detected, the guided ones
+    removed from ``points_right`` and ``gm`` (the rest renumbered, in order)."""
+    keep = ~drop
+    points_right = points_right.copy()
+    gone = train_idx[drop & (train_idx < n_right)]
+    points_right[gone] = pts_r[gone]
+    if gm is not None and len(gm.query_idx):
+        keep_g = keep[len(query_idx) - len(gm.query_idx):]
+        gm = GuidedMatches(*(getattr(gm, f.name)[keep_g]
+                             for f in dataclasses.fields(GuidedMatches)))
+        points_right = np.r_[points_right[:n_right],
+                             points_right[n_right:][keep_g]].astype(np.float32)
+        n_net = len(query_idx) - len(keep_g)
+        train_idx = np.r_[train_idx[:n_net][keep[:n_net]],
+                          n_right + np.arange(len(gm.query_idx))].astype(np.int32)
+    else:
+        train_idx = train_idx[keep]
+    return (query_idx[keep], train_idx, points_right, passes[keep], distances[keep], gm,
+            Refinement(*(a[keep] for a in refinement)))
 
 
 def refine_radius(shape) -> int:
