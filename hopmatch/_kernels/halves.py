@@ -10,15 +10,9 @@ from .._config import jit
 
 
 @jit(inline=True)
-def _bilinear(img, x, y):
-    """``img`` at the fractional (x, y), linear in both axes; the caller keeps the four
-    pixels inside the image."""
-    fx = np.floor(x)
-    fy = np.floor(y)
-    i = int(fx)
-    j = int(fy)
-    tx = x - fx
-    ty = y - fy
+def _at(img, i, j, tx, ty):
+    """``img`` at (i + tx, j + ty), linear in both axes (i, j whole, tx, ty in [0, 1));
+    the caller keeps the four pixels inside the image."""
     top = (1.0 - tx) * np.float64(img[j, i]) + tx * np.float64(img[j, i + 1])
     bottom = (1.0 - tx) * np.float64(img[j + 1, i]) + tx * np.float64(img[j + 1, i + 1])
     return (1.0 - ty) * top + ty * bottom
@@ -67,6 +61,15 @@ def half_windows(img_l, img_r, left, right, radius):
         s_r[k] = np.nan
         if not (_inside(xl, yl, radius, hl, wl) and _inside(xr, yr, radius, hr, wr)):
             continue
+        # whole-pixel offsets: every sample of a window has the same fractional part
+        il = int(np.floor(xl))
+        jl = int(np.floor(yl))
+        ir = int(np.floor(xr))
+        jr = int(np.floor(yr))
+        txl = xl - il
+        tyl = yl - jl
+        txr = xr - ir
+        tyr = yr - jr
         for side in range(2):
             sa = 0.0
             sb = 0.0
@@ -74,8 +77,8 @@ def half_windows(img_l, img_r, left, right, radius):
             for r in range(-radius, radius + 1):
                 for c0 in range(1, radius + 1):
                     c = -c0 if side == 0 else c0
-                    buf_a[i] = _bilinear(img_l, xl + c, yl + r)
-                    buf_b[i] = _bilinear(img_r, xr + c, yr + r)
+                    buf_a[i] = _at(img_l, il + c, jl + r, txl, tyl)
+                    buf_b[i] = _at(img_r, ir + c, jr + r, txr, tyr)
                     sa += buf_a[i]
                     sb += buf_b[i]
                     i += 1

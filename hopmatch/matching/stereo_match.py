@@ -404,9 +404,8 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
         u = u if k == 0 else np.r_[u, gm.fields]
         distances = confidence_distances(u, refinement.curvature)
         if halves.HALF_CHECK:  # windows that straddle a depth edge (matching.halves)
-            half = max(halves.HALF_RADIUS, round(halves.HALF_RADIUS * radius / REFINE_RADIUS))
             drop = halves.straddling(grays[0], grays[1], left, points_right[train_idx],
-                                     radius=half, threads=threads)
+                                     radius=half_window_radius(radius), threads=threads)
             if drop.any():
                 (query_idx, train_idx, points_right, passes, distances, gm,
                  refinement) = _without(drop, query_idx, train_idx, points_right, pts_r,
@@ -463,9 +462,18 @@ def refine_radius(shape) -> int:
                int(np.floor(REFINE_RADIUS * (pixels / REFINE_REFERENCE_PIXELS) ** 0.25 + 0.5)))
 
 
+def half_window_radius(refine_half_side: int) -> int:
+    """Half-side of the half-window test's windows (:mod:`hopmatch.matching.halves`) beside
+    a refinement of half-side ``refine_half_side`` (:func:`refine_radius`):
+    ``HALF_RADIUS`` (9 x 9) beside the 7 x 7 windows, grown in proportion beyond them."""
+    return max(halves.HALF_RADIUS,
+               int(np.floor(halves.HALF_RADIUS * refine_half_side / REFINE_RADIUS + 0.5)))
+
+
 def warm_up_beyond_network() -> None:
-    """Compile (or load from the cache) the kernels of the guided pass and the refinement
-    on tiny inputs of the dtypes :func:`match_stereo` gives them (``hopmatch.warmup``)."""
+    """Compile (or load from the cache) the kernels of the guided pass, the refinement and
+    the half-window test on tiny inputs of the dtypes :func:`match_stereo` gives them
+    (``hopmatch.warmup``)."""
     rng = np.random.default_rng(0)
     g = np.ascontiguousarray(rng.random((40, 64)) * 100, dtype=np.float32)
     xs, ys = np.meshgrid(np.arange(20.0, 44.0, 4.0), np.arange(15.0, 26.0, 5.0))
@@ -475,6 +483,7 @@ def warm_up_beyond_network() -> None:
     guided_pass(pts, pts, desc, desc, g, g, matched, matched, np.zeros(len(pts)),
                 matcher_config({}))
     refine_disparities(g, g, pts, pts[:, 0], pts[:, 1])
+    halves.straddling(g, g, pts, pts)
 
 
 def _match_unrectified(left, right, detector, config, fundamental, mask_left, mask_right,
