@@ -83,7 +83,8 @@ class StereoMatchResult:
         at its refined position (``network.train_idx`` still indexes the same rows).
     query_idx, train_idx : (M,) int32 ndarrays
         Matches as indices into ``points_left`` / ``points_right``: the network's first
-        (in its order, ``network.query_idx``), then the guided ones.
+        (in its order, ``network.query_idx`` but those the half-window test dropped), then
+        the guided ones.
     distances : (M,) float32 ndarray
         ``DMatch.distance`` of each match, lower is better. With the refinement (the
         default): ``1 - p``, p the estimated probability that the match is correct at
@@ -233,8 +234,9 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         (docs/method.md): ``guided`` appends matches for left points the network left
         unmatched (``result.passes == 1``, right points appended to ``points_right``),
         and ``refine`` moves every match's right point to its sub-pixel position on the
-        row the vertical model gives (``result.refinement``). ``preset="paper"`` turns
-        both off.
+        row the vertical model gives (``result.refinement``), then drops the matches whose
+        grey window straddles a depth edge (:mod:`hopmatch.matching.halves`).
+        ``preset="paper"`` turns both off.
 
     Examples
     --------
@@ -347,7 +349,10 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
                    config: MatcherConfig, *, threads: int | None = None,
                    image_shape=None) -> StereoMatchResult:
     """``result`` (the network's matches on a rectified pair) with the guided pass's
-    matches appended (``config.guided``) and every match refined (``config.refine``).
+    matches appended (``config.guided``) and every match refined (``config.refine``), less
+    the matches whose refined windows straddle a depth edge (with ``config.refine``, unless
+    ``hopmatch.matching.halves.HALF_CHECK`` is False;
+    :func:`~hopmatch.matching.halves.straddling`).
 
     ``descriptors``, ``gradients`` and ``grays`` are the (left, right) windows, feature
     images and grey images of the detection; ``image_shape`` the (H, W) of the images
