@@ -1,7 +1,7 @@
 """Per-scene quality of match_stereo's defaults, pass by pass, against ground truth.
 
 Run: ``python benchmarks/passes.py [--scenes NAME ...] [--perturb NAME ...] [--params JSON]
-[--guided JSON] [--baselines] [--ranking] [--refine-radius N]``
+[--guided JSON] [--halves JSON] [--baselines] [--ranking] [--refine-radius N]``
 
 For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
 scene there) it prints: matches, correct@1px and precision@1px
@@ -16,7 +16,9 @@ by ``result.distances`` (k = 10, 20, 30, 50, 70, 90, 100; scored matches only), 
 confidence that ranks keeps (near) non-increasing in k.
 
 ``--guided`` sets module constants of :mod:`hopmatch.matching.guided` first (e.g.
-``'{"GUIDED_SEED_ROUNDS": 0}'``), to measure the guided pass's settings one at a time.
+``'{"GUIDED_SEED_ROUNDS": 0}'``), to measure the guided pass's settings one at a time;
+``--halves`` those of :mod:`hopmatch.matching.halves` (``'{"HALF_CHECK": false}'``: without
+the half-window test).
 
 ``--perturb`` applies a change to the right image before matching and maps the right
 points back through it before scoring: ``dy0.5`` (shifted down by 0.5 px), ``gain0.7``
@@ -51,7 +53,7 @@ import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
 from hopmatch.compare import METHODS  # noqa: E402
 from hopmatch.evaluate import score_matches  # noqa: E402
-from hopmatch.matching import guided  # noqa: E402
+from hopmatch.matching import guided, halves  # noqa: E402
 
 
 def bilinear_gt(points: np.ndarray, disparity: np.ndarray) -> np.ndarray:
@@ -151,6 +153,8 @@ def main(argv=None) -> int:
     ap.add_argument("--params", default="{}", help="match_stereo parameters (JSON object)")
     ap.add_argument("--guided", default="{}",
                     help="constants of hopmatch.matching.guided to set (JSON object)")
+    ap.add_argument("--halves", default="{}",
+                    help="constants of hopmatch.matching.halves to set (JSON object)")
     ap.add_argument("--baselines", action="store_true", help="also SIFT and SGBM")
     ap.add_argument("--ranking", action="store_true",
                     help="also the precision of the best k %% by distance")
@@ -162,10 +166,15 @@ def main(argv=None) -> int:
         if not (name.startswith("GUIDED_") and hasattr(guided, name)):
             raise SystemExit(f"--guided: hopmatch.matching.guided has no constant {name!r}")
         setattr(guided, name, value)
+    for name, value in json.loads(args.halves).items():
+        if not (name.startswith("HALF_") and hasattr(halves, name)):
+            raise SystemExit(f"--halves: hopmatch.matching.halves has no constant {name!r}")
+        setattr(halves, name, value)
     names = args.scenes or datasets.list_scenes()
     for spec in args.perturb:
         print(f"## perturbation: {spec or 'none'}; params {params or 'defaults'}"
-              + (f"; guided {args.guided}" if args.guided != "{}" else ""))
+              + (f"; guided {args.guided}" if args.guided != "{}" else "")
+              + (f"; halves {args.halves}" if args.halves != "{}" else ""))
         print("scene | matches | correct | precision | med err | by pass (n/correct/prec/med)"
               " | ms" + (" | SIFT | SGBM" if args.baselines else ""))
         tot = {"m": 0, "c": 0, "s": 0, "sift": 0, "sgbm": 0}

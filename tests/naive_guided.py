@@ -1,7 +1,8 @@
 """Slow, obviously correct references for the kernels of the guided pass, the sub-pixel
-refinement and the vertical-offset model (``hopmatch._kernels.guided``,
-``hopmatch._kernels.refine``). Plain NumPy on one point at a time, written from the
-kernels' docstrings; the tests compare the kernels with them to a stated tolerance."""
+refinement, the half-window test and the vertical-offset model
+(``hopmatch._kernels.guided``, ``hopmatch._kernels.refine``, ``hopmatch._kernels.halves``).
+Plain NumPy on one point at a time, written from the kernels' docstrings; the tests compare
+the kernels with them to a stated tolerance."""
 
 from __future__ import annotations
 
@@ -218,3 +219,30 @@ def refine_one_slanted(img_l, img_r, xl, yl, xr, yr, gx, gy, radius, sigma, cubi
                                  for c, r in offs], w)
 
     return parabola_search(z, xr, step, levels, iterations, tol, max_shift)
+
+
+def half_windows(g_l, g_r, left, right, radius):
+    """Reference of ``hopmatch._kernels.halves.half_windows``: for each match, the ZNCC of
+    the left halves (offsets c < 0) and of the right halves (c > 0) of the ``(2 radius +
+    1)**2`` windows centred on ``left[m]`` (g_l) and ``right[m]`` (g_r), bilinear, and the
+    population standard deviation of each half of the left window; NaN where a window or
+    the pixels its interpolation reads leave an image."""
+    out = np.full((4, len(left)), np.nan)
+    for m, ((xl, yl), (xr, yr)) in enumerate(zip(left, right)):
+        ok = True
+        for (x, y), g in (((xl, yl), g_l), ((xr, yr), g_r)):
+            h, w = g.shape
+            ok &= (math.floor(x) - radius >= 0 and math.floor(x) + radius + 1 <= w - 1
+                   and math.floor(y) - radius >= 0 and math.floor(y) + radius + 1 <= h - 1)
+        if not ok:
+            continue
+        for side, cols in ((0, range(-radius, 0)), (1, range(1, radius + 1))):
+            a = np.array([bilinear(g_l, xl + c, yl + r) for r in range(-radius, radius + 1)
+                          for c in cols])
+            b = np.array([bilinear(g_r, xr + c, yr + r) for r in range(-radius, radius + 1)
+                          for c in cols])
+            a0, b0 = a - a.mean(), b - b.mean()
+            den = math.sqrt(float(a0 @ a0) * float(b0 @ b0))
+            out[side, m] = float(a0 @ b0) / den if den > 1e-12 else 0.0
+            out[2 + side, m] = math.sqrt(float(a0 @ a0) / len(a))
+    return tuple(out)

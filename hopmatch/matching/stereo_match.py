@@ -19,6 +19,7 @@ from ..errors import (
     UnrectifiedPairWarning,
 )
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
+from . import halves
 from .confidence import confidence_distances, fields_of_distances
 from .diagnostics import LooksUnrectifiedError
 from .geometry import EpipolarGeometry, GeometryWarning, transform_points
@@ -88,7 +89,8 @@ class StereoMatchResult:
         at its refined position (``network.train_idx`` still indexes the same rows).
     query_idx, train_idx : (M,) int32 ndarrays
         Matches as indices into ``points_left`` / ``points_right``: the network's first
-        (in its order, ``network.query_idx``), then the guided ones.
+        (in its order, ``network.query_idx`` but those the half-window test dropped), then
+        the guided ones.
     distances : (M,) float32 ndarray
         ``DMatch.distance`` of each match, lower is better. With the refinement (the
         default): ``1 - p``, p the estimated probability that the match is correct at
@@ -245,8 +247,9 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         (docs/method.md): ``guided`` appends matches for left points the network left
         unmatched (``result.passes == 1``, right points appended to ``points_right``),
         and ``refine`` moves every match's right point to its sub-pixel position on the
-        row the vertical model gives (``result.refinement``). ``preset="paper"`` turns
-        both off.
+        row the vertical model gives (``result.refinement``), then drops the matches whose
+        grey window straddles a depth edge (:mod:`hopmatch.matching.halves`).
+        ``preset="paper"`` turns both off.
 
     Examples
     --------
@@ -376,7 +379,10 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
                    config: MatcherConfig, *, threads: int | None = None,
                    image_shape=None) -> StereoMatchResult:
     """``result`` (the network's matches on a rectified pair) with the guided pass's
-    matches appended (``config.guided``) and every match refined (``config.refine``).
+    matches appended (``config.guided``) and every match refined (``config.refine``), less
+    the matches whose refined windows straddle a depth edge (with ``config.refine``, unless
+    ``hopmatch.matching.halves.HALF_CHECK`` is False;
+    :func:`~hopmatch.matching.halves.straddling`).
 
     ``descriptors``, ``gradients`` and ``grays`` are the (left, right) windows, feature
     images and grey images of the detection; ``image_shape`` the (H, W) of the images
@@ -413,34 +419,66 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
     responses_right = (result.responses_right if k == 0 else
                        np.r_[result.responses_right, np.zeros(k, np.float32)])
     refinement = None
+    passes = np.r_[np.full(len(net.query_idx), PASS_NETWORK, np.uint8),
+                   np.full(k, PASS_GUIDED, np.uint8)]
+    distances = net.distances if k == 0 else np.r_[net.distances, gm.distances]
     if config.refine:
         left = pts_l[query_idx]
         yr = left[:, 1].astype(np.float64) - offset.at(left)
+        radius = refine_radius(np.shape(grays[0])[:2] if image_shape is None
+                               else image_shape)
         refinement = refine_disparities(grays[0], grays[1], left,
-                                        points_right[train_idx, 0], yr,
-                                        radius=refine_radius(
-                                            np.shape(grays[0])[:2] if image_shape is None
-                                            else image_shape),
+                                        points_right[train_idx, 0], yr, radius=radius,
                                         threads=threads)
         moved = train_idx[refinement.ok]
         points_right = points_right.copy() if points_right is pts_r else points_right
         points_right[moved, 0] = refinement.x[refinement.ok]
         points_right[moved, 1] = yr[refinement.ok]
-    t2 = time.perf_counter()
-    timings = dict(result.timings, match=result.timings["match"] + (t2 - t0))
-    match_timings = dict(result.match_timings, guided=t1 - t0, refine=t2 - t1)
-    passes = np.r_[np.full(len(net.query_idx), PASS_NETWORK, np.uint8),
-                   np.full(k, PASS_GUIDED, np.uint8)]
-    distances = net.distances if k == 0 else np.r_[net.distances, gm.distances]
-    if refinement is not None:  # one scale for both passes: field and peak curvature
+        # one scale for both passes: field and peak curvature
         u = fields_of_distances(net.distances)
         u = u if k == 0 else np.r_[u, gm.fields]
         distances = confidence_distances(u, refinement.curvature)
+        if halves.HALF_CHECK:  # windows that straddle a depth edge (matching.halves)
+            drop = halves.straddling(grays[0], grays[1], left, points_right[train_idx],
+                                     radius=half_window_radius(radius), threads=threads)
+            if drop.any():
+                (query_idx, train_idx, points_right, passes, distances, gm,
+                 refinement) = _without(drop, query_idx, train_idx, points_right, pts_r,
+                                        n_right, passes, distances, gm, refinement)
+                k = 0 if gm is None else len(gm.query_idx)
+                responses_right = responses_right[:n_right + k]
+    t2 = time.perf_counter()
+    timings = dict(result.timings, match=result.timings["match"] + (t2 - t0))
+    match_timings = dict(result.match_timings, guided=t1 - t0, refine=t2 - t1)
     return dataclasses.replace(
         result, points_right=points_right, responses_right=responses_right,
         query_idx=query_idx, train_idx=train_idx, distances=distances.astype(np.float32),
         timings=timings, match_timings=match_timings, passes=passes,
         n_detected_right=n_right, guided=gm, refinement=refinement, row_offset=offset)
+
+
+def _without(drop, query_idx, train_idx, points_right, pts_r, n_right, passes, distances,
+             gm, refinement):
+    """The matches of :func:`beyond_network` but those where ``drop``: the network's
+    detected right points they moved back where they were detected, the guided ones
+    removed from ``points_right`` and ``gm`` (the rest renumbered, in order)."""
+    keep = ~drop
+    points_right = points_right.copy()
+    gone = train_idx[drop & (train_idx < n_right)]
+    points_right[gone] = pts_r[gone]
+    if gm is not None and len(gm.query_idx):
+        keep_g = keep[len(query_idx) - len(gm.query_idx):]
+        gm = GuidedMatches(*(getattr(gm, f.name)[keep_g]
+                             for f in dataclasses.fields(GuidedMatches)))
+        points_right = np.r_[points_right[:n_right],
+                             points_right[n_right:][keep_g]].astype(np.float32)
+        n_net = len(query_idx) - len(keep_g)
+        train_idx = np.r_[train_idx[:n_net][keep[:n_net]],
+                          n_right + np.arange(len(gm.query_idx))].astype(np.int32)
+    else:
+        train_idx = train_idx[keep]
+    return (query_idx[keep], train_idx, points_right, passes[keep], distances[keep], gm,
+            Refinement(*(a[keep] for a in refinement)))
 
 
 def refine_radius(shape) -> int:
@@ -459,9 +497,18 @@ def refine_radius(shape) -> int:
                int(np.floor(REFINE_RADIUS * (pixels / REFINE_REFERENCE_PIXELS) ** 0.25 + 0.5)))
 
 
+def half_window_radius(refine_half_side: int) -> int:
+    """Half-side of the half-window test's windows (:mod:`hopmatch.matching.halves`) beside
+    a refinement of half-side ``refine_half_side`` (:func:`refine_radius`):
+    ``HALF_RADIUS`` (9 x 9) beside the 7 x 7 windows, grown in proportion beyond them."""
+    return max(halves.HALF_RADIUS,
+               int(np.floor(halves.HALF_RADIUS * refine_half_side / REFINE_RADIUS + 0.5)))
+
+
 def warm_up_beyond_network() -> None:
-    """Compile (or load from the cache) the kernels of the guided pass and the refinement
-    on tiny inputs of the dtypes :func:`match_stereo` gives them (``hopmatch.warmup``)."""
+    """Compile (or load from the cache) the kernels of the guided pass, the refinement and
+    the half-window test on tiny inputs of the dtypes :func:`match_stereo` gives them
+    (``hopmatch.warmup``)."""
     rng = np.random.default_rng(0)
     g = np.ascontiguousarray(rng.random((40, 64)) * 100, dtype=np.float32)
     xs, ys = np.meshgrid(np.arange(20.0, 44.0, 4.0), np.arange(15.0, 26.0, 5.0))
@@ -471,6 +518,7 @@ def warm_up_beyond_network() -> None:
     guided_pass(pts, pts, desc, desc, g, g, matched, matched, np.zeros(len(pts)),
                 matcher_config({}))
     refine_disparities(g, g, pts, pts[:, 0], pts[:, 1])
+    halves.straddling(g, g, pts, pts)
 
 
 def _match_unrectified(left, right, detector, config, fundamental, mask_left, mask_right,

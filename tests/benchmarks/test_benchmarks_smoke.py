@@ -350,3 +350,16 @@ def test_refine_stages_smoke():
         rf"drift of the errors' plane across the image width \(px\), defaults \(both "
         rf"stages\): motorcycle [+-]{NUM[1:]}",
     )
+
+
+def test_wrong_matches_smoke():
+    """docs/parameters.md quotes its columns and pooled line (the half-window test)."""
+    out = run_script("wrong_matches.py")
+    lines = out.splitlines()
+    assert lines[0] == ("scene | scored | wrong | by pass 0/1 | err 1-2/2-5/>5 | sign +/- | "
+                        "edge <=2 (all) | edge <=4 (all) | test drops wrong/correct")
+    assert len(lines) == 3, out
+    assert re.fullmatch(r"\S+ \| \d+ \| \d+ \| \d+/\d+ \| \d+/\d+/\d+ \| \d+/\d+ \| "
+                        r"[\d.]+ \([\d.]+\) \| [\d.]+ \([\d.]+\) \| \d+/\d+", lines[1]), lines[1]
+    assert re.fullmatch(r"pooled: \d+ scored, \d+ wrong; the test drops \d+ wrong and \d+ "
+                        r"correct", lines[2]), lines[2]
