@@ -84,6 +84,64 @@ def _zncc_on_strip(a, sa2, wts, strip, x, s, gx, gy, cubic):
     return sab / np.sqrt(sa2 * var)
 
 
+@jit(inline=True)
+def _zncc_of_sums(sa2, sw, sb, sbb, sab):
+    """The weighted ZNCC of :func:`_zncc_on_strip` from its sums (-2: a flat window)."""
+    var = sbb - sb * sb / sw
+    if var <= 1e-12 * max(sbb, 1e-300):
+        return -2.0
+    return sab / np.sqrt(sa2 * var)
+
+
+@jit
+def _window_sums(a, wts, strip, b, s, stamp, m, sa_, sab_, sbb_, sbn_):
+    """Fill the sums of the window of ``strip`` whose first column is ``b`` (and of the
+    next one, ``b + 1``) unless match ``m`` already did (``stamp``): ``sa_[b]`` = sum w v,
+    ``sab_[b]`` = sum w a v, ``sbb_[b]`` = sum w v**2 and ``sbn_[b]`` = sum w v v', v'
+    the strip's value one column right of v (the window's samples at whole columns)."""
+    for k in range(b, b + 2):
+        if stamp[k] == m:
+            continue
+        stamp[k] = m
+        s1 = 0.0
+        s2 = 0.0
+        s3 = 0.0
+        s4 = 0.0
+        for r in range(s):
+            row = strip[r]
+            for c in range(s):
+                w = wts[r * s + c]
+                v = row[k + c]
+                wv = w * v
+                s1 += wv
+                s2 += a[r * s + c] * wv
+                s3 += wv * v
+                s4 += wv * row[k + c + 1]
+        sa_[k] = s1
+        sab_[k] = s2
+        sbb_[k] = s3
+        sbn_[k] = s4
+
+
+@jit
+def _zncc_square(a, sa2, sw, wts, strip, x, s, stamp, m, sa_, sab_, sbb_, sbn_):
+    """:func:`_zncc_on_strip` of a square window (gradient 0, 0) with linear interpolation,
+    from the sums of the two windows at whole columns around it (:func:`_window_sums`,
+    computed once per match and column): every sample lies the same fraction t between
+    two columns, so the sums are those of the two windows mixed by 1 - t and t (equal to
+    :func:`_zncc_on_strip`'s up to rounding)."""
+    rad = s // 2
+    fx = np.floor(x)
+    b = int(fx) - rad
+    t = x - fx
+    u = 1.0 - t
+    _window_sums(a, wts, strip, b, s, stamp, m, sa_, sab_, sbb_, sbn_)
+    sb = u * sa_[b] + t * sa_[b + 1]
+    sab = u * sab_[b] + t * sab_[b + 1]
+    sbb = u * u * sbb_[b] + 2.0 * u * t * sbn_[b] + t * t * sbb_[b + 1]
+    return _zncc_of_sums(sa2, sw, sb, sbb, sab)
+
+
 @jit
 def _fits(xl, yl, x0, y, rm, reach, pad, hl, wl, h, w):
     """Whether the left window of half-side ``rm`` at (xl, yl) and the right strip of
@@ -143,6 +201,14 @@ def refine_rows(img_l, img_r, left, xr, yr, gx, gy, radius, min_radius, sigma, c
     a = np.empty(s_max * s_max, dtype=np.float64)
     wts = np.empty(s_max * s_max, dtype=np.float64)
     w_rad = -1
+    sw_w = 0.0
+    # per-column window sums of the square windows (_zncc_square), valid where stamp == m
+    n_strip = strip.shape[1]
+    stamp = np.full(n_strip, -1, dtype=np.int64)
+    sa_ = np.empty(n_strip, dtype=np.float64)
+    sab_ = np.empty(n_strip, dtype=np.float64)
+    sbb_ = np.empty(n_strip, dtype=np.float64)
+    sbn_ = np.empty(n_strip, dtype=np.float64)
     for m in range(nm):
         out[m] = xr[m]
         xl = np.float64(left[m, 0])
@@ -173,6 +239,9 @@ def refine_rows(img_l, img_r, left, xr, yr, gx, gy, radius, min_radius, sigma, c
                 for c in range(s):
                     d2 = (r - rm) ** 2 + (c - rm) ** 2
                     wts[r * s + c] = 1.0 if sigma <= 0.0 else np.exp(-d2 / (2.0 * sigma ** 2))
+            sw_w = 0.0
+            for t in range(s * s):
+                sw_w += wts[t]
         # the left window, zero weighted mean
         lx = int(np.floor(xl)) - rm - pad
         _row_strip(img_l, lx, s + 2 * pad, yl, s, cubic, lstrip)
@@ -197,15 +266,24 @@ def refine_rows(img_l, img_r, left, xr, yr, gx, gy, radius, min_radius, sigma, c
         _row_strip(img_r, x_lo, 2 * reach + 2, y, s, cubic, strip)
         x = x0 - x_lo
         start = x
+        square = g_x == 0.0 and g_y == 0.0 and not cubic
         done = False
         moves = 0
         h_step = step
         for level in range(levels):  # the step halves from one level to the next
             done = False
             while moves < iterations:
-                zm = _zncc_on_strip(a, sa2, wts, strip, x - h_step, s, g_x, g_y, cubic)
-                z0 = _zncc_on_strip(a, sa2, wts, strip, x, s, g_x, g_y, cubic)
-                zp = _zncc_on_strip(a, sa2, wts, strip, x + h_step, s, g_x, g_y, cubic)
+                if square:
+                    zm = _zncc_square(a, sa2, sw_w, wts, strip, x - h_step, s, stamp, m, sa_,
+                                      sab_, sbb_, sbn_)
+                    z0 = _zncc_square(a, sa2, sw_w, wts, strip, x, s, stamp, m, sa_, sab_,
+                                      sbb_, sbn_)
+                    zp = _zncc_square(a, sa2, sw_w, wts, strip, x + h_step, s, stamp, m, sa_,
+                                      sab_, sbb_, sbn_)
+                else:
+                    zm = _zncc_on_strip(a, sa2, wts, strip, x - h_step, s, g_x, g_y, cubic)
+                    z0 = _zncc_on_strip(a, sa2, wts, strip, x, s, g_x, g_y, cubic)
+                    zp = _zncc_on_strip(a, sa2, wts, strip, x + h_step, s, g_x, g_y, cubic)
                 den = zm - 2.0 * z0 + zp
                 if zm > z0 or zp > z0 or den >= 0.0:
                     move = h_step if zp > zm else -h_step
