@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._kernels import similarity as _ks
-from .._threads import map_chunks
+from .._threads import current_threads, map_chunks, run_both
 
 #: Regulariser of eq. 7's normalisation (added to the windows' mean contrast).
 EPS = 1e-6
@@ -16,7 +16,9 @@ def window_contrasts(desc_l: np.ndarray, desc_r: np.ndarray):
     normalises eq. 7 (:func:`similarity_distance`); None for binary (uint8) descriptors."""
     if desc_l.dtype == np.uint8:
         return None
-    return _ks.row_mean_abs(desc_l), _ks.row_mean_abs(desc_r)
+    # the two images' rows on two threads when there are (each row on its own: the same)
+    return run_both(lambda: _ks.row_mean_abs(desc_l), lambda: _ks.row_mean_abs(desc_r),
+                    current_threads())
 
 
 def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
