@@ -149,3 +149,25 @@ def test_the_matcher_is_bit_identical_for_any_thread_count(motorcycle, restore_t
         m.setPairInfo(kl, kr, left.shape[1::-1], right.shape[1::-1])
         out.append([(d.queryIdx, d.trainIdx, d.distance) for d in m.match(dl, dr)])
     assert out[0] == out[1] and len(out[0]) > 1000
+
+
+def test_shift_minimal_is_the_same_in_threads():
+    from hopmatch.matching.similarity import shift_minimal
+
+    rng = np.random.default_rng(5)
+    dl = rng.normal(size=(1500, 49)).astype(np.float32)
+    dr = rng.normal(size=(1500, 49)).astype(np.float32)
+    dl -= dl.mean(axis=1, keepdims=True)
+    dr -= dr.mean(axis=1, keepdims=True)
+    qi, ti = rng.permutation(1500), rng.permutation(1500)
+    with using_threads(1):
+        one = shift_minimal(dl, dr, qi, ti)
+    assert 0 < one.sum() < len(one)
+    bad = dr.copy()
+    bad[ti[-1]] += 5.0  # one row, in the last range, is no window: every match passes
+    for threads in (2, 3):
+        with using_threads(threads):
+            np.testing.assert_array_equal(shift_minimal(dl, dr, qi, ti), one)
+            assert shift_minimal(dl, bad, qi, ti).all()
+    with using_threads(1):
+        assert shift_minimal(dl, bad, qi, ti).all()
