@@ -19,8 +19,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 from .errors import InvalidArgumentError, InvalidTypeError
 
-__all__ = ["current_threads", "getNumThreads", "map_chunks", "resolve_threads", "run_both",
-           "setNumThreads", "using_threads"]
+__all__ = ["current_threads", "getNumThreads", "map_chunks", "map_ranges", "resolve_threads",
+           "row_order", "run_both", "setNumThreads", "using_threads"]
 
 #: Fewest points per chunk worth a thread (below, the hand-off costs more than it saves).
 MIN_CHUNK = 256
@@ -116,7 +116,7 @@ def run_both(first, second, threads: int):
     return a, future.result()
 
 
-def map_chunks(fn, split, threads: int | None = None):
+def map_chunks(fn, split, threads: int | None = None, order=None):
     """``fn(*split)`` computed on contiguous chunks of the rows of ``split`` in up to
     ``threads`` threads (None: :func:`current_threads`), its outputs (a tuple of arrays)
     concatenated in row order.
@@ -126,9 +126,25 @@ def map_chunks(fn, split, threads: int | None = None):
     it was compiled for). ``fn`` must compute each row from that row's inputs alone: then
     the result is bit-identical to ``fn(*split)``. Chunks have at least :data:`MIN_CHUNK`
     rows.
+
+    ``order``: a permutation of the rows (:func:`row_order`) in which ``fn`` sees them (the
+    outputs are put back in the rows' own order): items whose windows lie on nearby image
+    rows then follow one another, and a kernel that reads windows around each item finds
+    them in the CPU's caches rather than in memory (a quarter to a third off the guided
+    pass's row search on motorcycle). The result does not depend on it, since each row is
+    computed on its own.
     """
     import numpy as np
 
+    if order is not None:
+        order = np.asarray(order, dtype=np.intp)
+        outs = map_chunks(fn, [np.ascontiguousarray(a[order]) for a in split], threads)
+        back = []
+        for o in outs:
+            b = np.empty_like(o)
+            b[order] = o
+            back.append(b)
+        return tuple(back)
     n = len(split[0])
     chunks = min(current_threads() if threads is None else threads, n // MIN_CHUNK)
     if chunks < 2:
@@ -143,3 +159,31 @@ def map_chunks(fn, split, threads: int | None = None):
         rest = [f.result() for f in futures]
     outs = [first, *rest]
     return tuple(np.concatenate([o[k] for o in outs]) for k in range(len(first)))
+
+
+def map_ranges(fn, n: int, threads: int | None = None) -> list:
+    """``[fn(lo, hi) for (lo, hi) in ranges]``: ``fn`` called on contiguous ranges that
+    cut ``0 .. n`` into up to ``threads`` parts (None: :func:`current_threads`) of at least
+    :data:`MIN_CHUNK` items, in worker threads, the outputs in range order (one range,
+    ``(0, n)``, in the calling thread when a split does not pay). For kernels whose inputs
+    are not all cut alike (CSR offsets, one more row than items): the caller slices them
+    in ``fn`` and joins the outputs."""
+    chunks = min(current_threads() if threads is None else threads, n // MIN_CHUNK)
+    if chunks < 2:
+        return [fn(0, n)]
+    edges = [n * k // chunks for k in range(chunks + 1)]
+    pool = _executor()
+    futures = [pool.submit(fn, lo, hi) for lo, hi in zip(edges[1:-1], edges[2:])]
+    try:
+        first = fn(edges[0], edges[1])
+    finally:
+        rest = [f.result() for f in futures]
+    return [first, *rest]
+
+
+def row_order(y):
+    """The permutation that sorts items by their image row ``floor(y)`` (stable: items of
+    one row keep their order; NaN last), for :func:`map_chunks`'s ``order``."""
+    import numpy as np
+
+    return np.argsort(np.floor(np.asarray(y, dtype=np.float64)), kind="stable")

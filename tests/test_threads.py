@@ -7,8 +7,16 @@ import numpy as np
 import pytest
 
 import hopmatch
-from hopmatch._threads import map_chunks, resolve_threads, run_both, using_threads
+from hopmatch._threads import (
+    map_chunks,
+    map_ranges,
+    resolve_threads,
+    row_order,
+    run_both,
+    using_threads,
+)
 from hopmatch.errors import InvalidArgumentError, InvalidTypeError
+from hopmatch.matching import neighbourhood
 
 FIELDS = ("points_left", "points_right", "responses_left", "responses_right", "query_idx",
           "train_idx", "distances", "passes")
@@ -59,6 +67,53 @@ def test_map_chunks_equals_one_call():
         np.testing.assert_array_equal(map_chunks(fn, (a, b))[0], fn(a, b)[0])
 
 
+def test_map_chunks_in_row_order_equals_one_call():
+    rng = np.random.default_rng(1)
+    a, y = rng.random(3000), np.r_[rng.uniform(0, 500, 2999), np.nan]
+    order = row_order(y)
+    assert np.all(np.diff(np.floor(y[order][:-1])) >= 0) and np.isnan(y[order][-1])
+
+    def fn(x, yy):  # the second output: whether fn saw its rows sorted by row
+        rows = np.nan_to_num(np.floor(yy), nan=np.inf)
+        return np.sqrt(x) * 3.0 + yy, np.r_[True, np.diff(rows) >= 0]
+
+    assert not fn(a, y)[1].all()
+    for threads in (1, 2, 3):
+        got = map_chunks(fn, (a, y), threads, order=order)
+        np.testing.assert_array_equal(got[0], fn(a, y)[0])
+        assert got[1].all()
+
+
+def test_map_ranges_cuts_contiguous_ranges_in_order():
+    for n, threads in ((100, 4), (3000, 1), (3000, 2), (3000, 7)):
+        parts = map_ranges(lambda lo, hi: (lo, hi), n, threads)
+        assert parts[0][0] == 0 and parts[-1][1] == n
+        assert all(p[1] == q[0] for p, q in zip(parts, parts[1:]))
+        assert len(parts) == max(1, min(threads, n // 256))
+
+
+@pytest.mark.parametrize("threads", [2, 3])
+def test_neighbour_lists_and_planes_are_bit_identical_in_threads(threads):
+    from hopmatch._kernels import guided as kg
+
+    rng = np.random.default_rng(2)
+    queries = rng.uniform(0, 400, (2000, 2)).astype(np.float32)
+    matched = rng.uniform(0, 400, (3000, 2)).astype(np.float32)
+    disp = 30 + 0.05 * matched[:, 0] + rng.normal(0, 0.3, 3000)
+    h = np.float32(15)
+    off, idx = kg.query_neighbours(queries, matched, h, h)
+    off_t, idx_t = neighbourhood.query_neighbours(queries, matched, h, h, threads=threads)
+    assert off[-1] > 10 * len(queries)
+    np.testing.assert_array_equal(off_t, off)
+    np.testing.assert_array_equal(idx_t, idx)
+    want = kg.neighbour_planes(queries, off, idx, matched, disp, 2.0, 4)
+    got = neighbourhood.neighbour_planes(queries, off, idx, matched, disp, 2.0, 4,
+                                         threads=threads)
+    assert np.count_nonzero(want[1]) > 1000
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
+
+
 def test_run_both_keeps_the_sequential_errors():
     def fails(what):
         raise ValueError(what)
@@ -94,3 +149,25 @@ def test_the_matcher_is_bit_identical_for_any_thread_count(motorcycle, restore_t
         m.setPairInfo(kl, kr, left.shape[1::-1], right.shape[1::-1])
         out.append([(d.queryIdx, d.trainIdx, d.distance) for d in m.match(dl, dr)])
     assert out[0] == out[1] and len(out[0]) > 1000
+
+
+def test_shift_minimal_is_the_same_in_threads():
+    from hopmatch.matching.similarity import shift_minimal
+
+    rng = np.random.default_rng(5)
+    dl = rng.normal(size=(1500, 49)).astype(np.float32)
+    dr = rng.normal(size=(1500, 49)).astype(np.float32)
+    dl -= dl.mean(axis=1, keepdims=True)
+    dr -= dr.mean(axis=1, keepdims=True)
+    qi, ti = rng.permutation(1500), rng.permutation(1500)
+    with using_threads(1):
+        one = shift_minimal(dl, dr, qi, ti)
+    assert 0 < one.sum() < len(one)
+    bad = dr.copy()
+    bad[ti[-1]] += 5.0  # one row, in the last range, is no window: every match passes
+    for threads in (2, 3):
+        with using_threads(threads):
+            np.testing.assert_array_equal(shift_minimal(dl, dr, qi, ti), one)
+            assert shift_minimal(dl, bad, qi, ti).all()
+    with using_threads(1):
+        assert shift_minimal(dl, bad, qi, ti).all()

@@ -35,12 +35,19 @@ def _row_strip(img, x_lo, n_cols, y, rows, cubic, out):
     top = int(fy) - rows // 2
     for r in range(rows):
         yy = top + r
-        for c in range(n_cols):
-            xx = x_lo + c
-            v = w1 * np.float64(img[yy, xx]) + w2 * np.float64(img[yy + 1, xx])
-            if cubic:
-                v += w0 * np.float64(img[yy - 1, xx]) + w3 * np.float64(img[yy + 2, xx])
-            out[r, c] = v
+        dst = out[r]
+        src1 = img[yy, x_lo:x_lo + n_cols]
+        src2 = img[yy + 1, x_lo:x_lo + n_cols]
+        if cubic:
+            src0 = img[yy - 1, x_lo:x_lo + n_cols]
+            src3 = img[yy + 2, x_lo:x_lo + n_cols]
+            for c in range(n_cols):
+                v = w1 * np.float64(src1[c]) + w2 * np.float64(src2[c])
+                v += w0 * np.float64(src0[c]) + w3 * np.float64(src3[c])
+                dst[c] = v
+        else:  # the same sums, in a loop without the branch (it vectorises)
+            for c in range(n_cols):
+                dst[c] = w1 * np.float64(src1[c]) + w2 * np.float64(src2[c])
 
 
 @jit(inline=True)
@@ -82,6 +89,59 @@ def _zncc_on_strip(a, sa2, wts, strip, x, s, gx, gy, cubic):
     if var <= 1e-12 * max(sbb, 1e-300):
         return -2.0
     return sab / np.sqrt(sa2 * var)
+
+
+@jit(inline=True)
+def _zncc_of_sums(sa2, sw, sb, sbb, sab):
+    """The weighted ZNCC of :func:`_zncc_on_strip` from its sums (-2: a flat window)."""
+    var = sbb - sb * sb / sw
+    if var <= 1e-12 * max(sbb, 1e-300):
+        return -2.0
+    return sab / np.sqrt(sa2 * var)
+
+
+@jit
+def _base_sums(a, wts, strip, b_lo, nb, s, sa_, sab_, sbb_, sbn_):
+    """The sums of the windows of ``strip`` at whole columns whose first column is ``b =
+    b_lo + m``, ``m < nb``: ``sa_[m]`` = sum w v, ``sab_[m]`` = sum w a v, ``sbb_[m]`` =
+    sum w v**2 and ``sbn_[m]`` = sum w v v', v' the strip's value one column right of v
+    (``a``, ``wts``: the left window and the weights, raster order). The loop over m is
+    innermost (it vectorises); each sum adds its terms in raster order."""
+    for m in range(nb):
+        sa_[m] = 0.0
+        sab_[m] = 0.0
+        sbb_[m] = 0.0
+        sbn_[m] = 0.0
+    for r in range(s):
+        row = strip[r]
+        for c in range(s):
+            w = wts[r * s + c]
+            av = a[r * s + c]
+            for m in range(nb):
+                v = row[b_lo + m + c]
+                wv = w * v
+                sa_[m] += wv
+                sab_[m] += av * wv
+                sbb_[m] += wv * v
+                sbn_[m] += wv * row[b_lo + m + c + 1]
+
+
+@jit
+def _zncc_square(sa2, sw, x, s, b_lo, sa_, sab_, sbb_, sbn_):
+    """:func:`_zncc_on_strip` of a square window (gradient 0, 0) with linear interpolation,
+    from :func:`_base_sums` (``b_lo`` their first window's first column): every sample
+    lies the same fraction t between two columns, so the window's sums are those of the
+    two windows at whole columns around it mixed by 1 - t and t (equal to
+    :func:`_zncc_on_strip`'s up to rounding)."""
+    rad = s // 2
+    fx = np.floor(x)
+    k = int(fx) - rad - b_lo
+    t = x - fx
+    u = 1.0 - t
+    sb = u * sa_[k] + t * sa_[k + 1]
+    sab = u * sab_[k] + t * sab_[k + 1]
+    sbb = u * u * sbb_[k] + 2.0 * u * t * sbn_[k] + t * t * sbb_[k + 1]
+    return _zncc_of_sums(sa2, sw, sb, sbb, sab)
 
 
 @jit
@@ -141,8 +201,16 @@ def refine_rows(img_l, img_r, left, xr, yr, gx, gy, radius, min_radius, sigma, c
     strip = np.empty((s_max, 2 * reach_max + 2), dtype=np.float64)
     lstrip = np.empty((s_max, s_max + 2 * pad), dtype=np.float64)
     a = np.empty(s_max * s_max, dtype=np.float64)
-    wts = np.empty(s_max * s_max, dtype=np.float64)
-    w_rad = -1
+    # the weights of each window half-side (computed at its first match), and their sums
+    w_tab = np.empty((radius + 1, s_max * s_max), dtype=np.float64)
+    w_done = np.zeros(radius + 1, dtype=np.bool_)
+    sw_tab = np.zeros(radius + 1, dtype=np.float64)
+    # the sums of the square windows at whole columns (_base_sums, _zncc_square)
+    n_strip = strip.shape[1]
+    sa_ = np.empty(n_strip, dtype=np.float64)
+    sab_ = np.empty(n_strip, dtype=np.float64)
+    sbb_ = np.empty(n_strip, dtype=np.float64)
+    sbn_ = np.empty(n_strip, dtype=np.float64)
     for m in range(nm):
         out[m] = xr[m]
         xl = np.float64(left[m, 0])
@@ -167,12 +235,18 @@ def refine_rows(img_l, img_r, left, xr, yr, gx, gy, radius, min_radius, sigma, c
             continue
         s = 2 * rm + 1
         n = s * s
-        if rm != w_rad:  # the weights of this window size
-            w_rad = rm
+        wts = w_tab[rm]
+        if not w_done[rm]:  # the weights of this window size, once per call
+            w_done[rm] = True
             for r in range(s):
                 for c in range(s):
                     d2 = (r - rm) ** 2 + (c - rm) ** 2
                     wts[r * s + c] = 1.0 if sigma <= 0.0 else np.exp(-d2 / (2.0 * sigma ** 2))
+            sw_t = 0.0
+            for t in range(s * s):
+                sw_t += wts[t]
+            sw_tab[rm] = sw_t
+        sw_w = sw_tab[rm]
         # the left window, zero weighted mean
         lx = int(np.floor(xl)) - rm - pad
         _row_strip(img_l, lx, s + 2 * pad, yl, s, cubic, lstrip)
@@ -197,15 +271,29 @@ def refine_rows(img_l, img_r, left, xr, yr, gx, gy, radius, min_radius, sigma, c
         _row_strip(img_r, x_lo, 2 * reach + 2, y, s, cubic, strip)
         x = x0 - x_lo
         start = x
+        # a square window: its positions x - step .. x + step within max_shift of the start
+        # lie on the windows at whole columns b_lo .. b_lo + nb - 1 (and the next column)
+        square = g_x == 0.0 and g_y == 0.0 and not cubic
+        b_lo = int(np.floor(start - max_shift - step)) - rm
+        nb = int(np.floor(start + max_shift + step)) - rm - b_lo + 2
+        if square and (b_lo < 0 or b_lo + nb + s > 2 * reach + 2):
+            square = False  # (not expected: the strip covers every position)
+        if square:
+            _base_sums(a, wts, strip, b_lo, nb, s, sa_, sab_, sbb_, sbn_)
         done = False
         moves = 0
         h_step = step
         for level in range(levels):  # the step halves from one level to the next
             done = False
             while moves < iterations:
-                zm = _zncc_on_strip(a, sa2, wts, strip, x - h_step, s, g_x, g_y, cubic)
-                z0 = _zncc_on_strip(a, sa2, wts, strip, x, s, g_x, g_y, cubic)
-                zp = _zncc_on_strip(a, sa2, wts, strip, x + h_step, s, g_x, g_y, cubic)
+                if square:
+                    zm = _zncc_square(sa2, sw_w, x - h_step, s, b_lo, sa_, sab_, sbb_, sbn_)
+                    z0 = _zncc_square(sa2, sw_w, x, s, b_lo, sa_, sab_, sbb_, sbn_)
+                    zp = _zncc_square(sa2, sw_w, x + h_step, s, b_lo, sa_, sab_, sbb_, sbn_)
+                else:
+                    zm = _zncc_on_strip(a, sa2, wts, strip, x - h_step, s, g_x, g_y, cubic)
+                    z0 = _zncc_on_strip(a, sa2, wts, strip, x, s, g_x, g_y, cubic)
+                    zp = _zncc_on_strip(a, sa2, wts, strip, x + h_step, s, g_x, g_y, cubic)
                 den = zm - 2.0 * z0 + zp
                 if zm > z0 or zp > z0 or den >= 0.0:
                     move = h_step if zp > zm else -h_step

@@ -23,7 +23,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from .._kernels import guided as _k
-from .._threads import map_chunks
+from .._threads import map_chunks, row_order
+from .neighbourhood import neighbour_planes, query_neighbours
 from .similarity import EPS, match_distance, similarity_distance
 
 #: Largest distance (px) between the peak of the row search and the predicted disparity.
@@ -197,17 +198,18 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     matched[qi] = True
     queries = np.flatnonzero(~matched)
     qpts = np.ascontiguousarray(pts_l[queries])
-    off, idx = _k.query_neighbours(qpts, m_left, np.float32(config.neighbour_width / 2),
-                                   np.float32(config.neighbour_height / 2))
+    off, idx = query_neighbours(qpts, m_left, np.float32(config.neighbour_width / 2),
+                                np.float32(config.neighbour_height / 2), threads=threads)
     scale = 1.0
     while scale < window:  # the smallest of the windows 2, 4... (at most ``window``)
         scale = min(2.0 * scale, window)
         need = np.flatnonzero(np.diff(off) < min_support)
         if len(need) == 0:
             break
-        off_n, idx_n = _k.query_neighbours(np.ascontiguousarray(qpts[need]), m_left,
-                                           np.float32(scale * config.neighbour_width / 2),
-                                           np.float32(scale * config.neighbour_height / 2))
+        off_n, idx_n = query_neighbours(np.ascontiguousarray(qpts[need]), m_left,
+                                        np.float32(scale * config.neighbour_width / 2),
+                                        np.float32(scale * config.neighbour_height / 2),
+                                        threads=threads)
         cnt = np.zeros(len(queries), dtype=np.int64)
         cnt[need] = np.diff(off_n)
         off_w = np.zeros(len(queries) + 1, dtype=np.int64)
@@ -219,8 +221,8 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     if len(rows) == 0:
         return empty_guided()
     disp = m_left[:, 0].astype(np.float64) - m_right[:, 0]
-    pred, gx, gy = _k.neighbour_planes(qpts, off, idx,
-                                       m_left, disp, GUIDED_PLANE_INLIER, GUIDED_PLANE_MIN)
+    pred, gx, gy = neighbour_planes(qpts, off, idx, m_left, disp, GUIDED_PLANE_INLIER,
+                                    GUIDED_PLANE_MIN, threads=threads)
     pred = pred[rows]
     gx = np.clip(gx[rows], -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
     gy = np.clip(gy[rows], -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
@@ -231,13 +233,15 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
         lambda qs, cs, ys: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys, float(radius),
                                          int(search), int(back), float(min_zncc),
                                          float(margin), EPS, float(config.gain_tolerance)),
-        (q, centre, yoff), threads)
+        (q, centre, yoff), threads, order=row_order(pts_l[q, 1]))
     ok = status == _k.FOUND
     yr = pts_l[q, 1].astype(np.float64) - yoff
-    u = _k.continuity_field(np.ascontiguousarray(pts_l[q]), np.where(ok, xr, np.nan), yr,
-                            sim, off, idx, rows, m_left, m_right, m_sim, config.theta,
-                            config.slope, config.similarity_weight, config.input_bias,
-                            gx, gy)
+    u = map_chunks(  # each query's field from its own inputs: bit-identical in chunks
+        lambda pq, xq, yq, sq, rq, gxq, gyq: (_k.continuity_field(
+            pq, xq, yq, sq, off, idx, rq, m_left, m_right, m_sim, config.theta,
+            config.slope, config.similarity_weight, config.input_bias, gxq, gyq),),
+        (np.ascontiguousarray(pts_l[q]), np.where(ok, xr, np.nan), yr, sim, rows, gx, gy),
+        threads)[0]
     acc = np.flatnonzero(ok & (np.nan_to_num(u, nan=-np.inf) > min_field))
     return GuidedMatches(
         query_idx=q[acc].astype(np.int32),
@@ -277,10 +281,10 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     matched[qi] = True
     q = np.flatnonzero(~matched).astype(np.int64)
     # only where no match reaches: fewer than GUIDED_MIN_SUPPORT in the network's window
-    off, _ = _k.query_neighbours(np.ascontiguousarray(pts_l[q]),
-                                 np.ascontiguousarray(pts_l[qi], dtype=np.float32),
-                                 np.float32(config.neighbour_width / 2),
-                                 np.float32(config.neighbour_height / 2))
+    off, _ = query_neighbours(np.ascontiguousarray(pts_l[q]),
+                              np.ascontiguousarray(pts_l[qi], dtype=np.float32),
+                              np.float32(config.neighbour_width / 2),
+                              np.float32(config.neighbour_height / 2), threads=threads)
     q = q[np.diff(off) < GUIDED_MIN_SUPPORT]
     if len(q) == 0:
         return empty_guided()
@@ -291,7 +295,7 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
         lambda qs, cs, ys: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys, float(outer),
                                          outer, GUIDED_BACK, float(min_zncc), float(margin),
                                          EPS, float(config.gain_tolerance)),
-        (q, centre, yoff), threads)
+        (q, centre, yoff), threads, order=row_order(pts_l[q, 1]))
     f = np.flatnonzero(status == _k.FOUND)
     if len(f) == 0:
         return empty_guided()
@@ -302,16 +306,16 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     m_right = np.ascontiguousarray(np.r_[pts_r[ti], np.c_[xr, yr]], dtype=np.float32)
     m_sim = np.r_[np.asarray(matched_similarity, dtype=np.float64), sim]
     qpts = np.ascontiguousarray(pts_l[q])
-    off, idx = _k.query_neighbours(qpts, m_left, np.float32(config.neighbour_width / 2),
-                                   np.float32(config.neighbour_height / 2))
+    off, idx = query_neighbours(qpts, m_left, np.float32(config.neighbour_width / 2),
+                                np.float32(config.neighbour_height / 2), threads=threads)
     owner = np.repeat(np.arange(len(q)), np.diff(off))
     others = idx != n_m + owner  # each peak but itself
     off = np.zeros(len(q) + 1, dtype=np.int64)
     np.cumsum(np.bincount(owner[others], minlength=len(q)), out=off[1:])
     idx = np.ascontiguousarray(idx[others], dtype=np.int32)
     disp = m_left[:, 0].astype(np.float64) - m_right[:, 0]
-    _, gx, gy = _k.neighbour_planes(qpts, off, idx, m_left, disp, GUIDED_PLANE_INLIER,
-                                    GUIDED_PLANE_MIN)
+    _, gx, gy = neighbour_planes(qpts, off, idx, m_left, disp, GUIDED_PLANE_INLIER,
+                                 GUIDED_PLANE_MIN, threads=threads)
     gx = np.clip(gx, -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
     gy = np.clip(gy, -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
     u = _k.continuity_field(qpts, xr, yr, sim, off, idx, np.arange(len(q)), m_left, m_right,

@@ -7,10 +7,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._kernels import guided as _kg
 from .._kernels import refine as _k
-from .._threads import map_chunks
+from .._threads import map_chunks, row_order
 from ..errors import InvalidArgumentError
+from .neighbourhood import neighbour_planes, query_neighbours
 
 #: Half-side of the refinement windows (7 x 7 pixels of the grey images).
 REFINE_RADIUS = 3
@@ -145,15 +145,16 @@ def refine_disparities(gray_l, gray_r, left, xr, yr, *, radius: int = REFINE_RAD
                 img_l, img_r, ls, xs, ys, gxs, gys, int(rad), int(min_rad), float(sigma),
                 bool(cubic), float(h), int(n_levels), int(iterations), float(eps),
                 float(max_shift)),
-            (left, start, yr, gx, gy), threads)
+            (left, start, yr, gx, gy), threads, order=order)
 
+    order = row_order(left[:, 1])  # nearby windows one after another (cache locality)
     flat = np.zeros(len(xr))
     x, ok, peak, curv = stage(xr, flat, flat, radius, radius, 0.0, False, step, levels, tol)
     # the second stage's sizes are those of a REFINE_RADIUS first stage, scaled with it
     # (a larger image: larger windows; docs/parameters.md, "Refinement window and image size")
     f = radius / REFINE_RADIUS
     for _ in range(SLANT_PASSES if slanted and len(x) else 0):
-        gx, gy = disparity_gradients(left, left[:, 0] - x, scale=f)
+        gx, gy = disparity_gradients(left, left[:, 0] - x, scale=f, threads=threads)
         x2, ok2, _, _ = stage(x, gx, gy, round(SLANT_RADIUS * f),
                               max(SLANT_MIN_RADIUS, round(SLANT_MIN_RADIUS * f)),
                               SLANT_SIGMA * f, SLANT_CUBIC, SLANT_STEP, SLANT_LEVELS, SLANT_TOL)
@@ -162,7 +163,8 @@ def refine_disparities(gray_l, gray_r, left, xr, yr, *, radius: int = REFINE_RAD
     return Refinement(x, ok, peak, curv)
 
 
-def disparity_gradients(left: np.ndarray, disparity: np.ndarray, scale: float = 1.0):
+def disparity_gradients(left: np.ndarray, disparity: np.ndarray, scale: float = 1.0,
+                        threads: int | None = None):
     """``(gx, gy)``, (M,) float64: at each match, the gradient of the least-squares plane
     through the disparities of the matches within ``scale`` x :data:`SLANT_HALF_WINDOW` px
     of it (itself included; :func:`hopmatch._kernels.guided.neighbour_planes` with
@@ -177,9 +179,9 @@ def disparity_gradients(left: np.ndarray, disparity: np.ndarray, scale: float = 
         return gx, gy
     pts = np.ascontiguousarray(left[good], dtype=np.float32)
     half = np.float32(SLANT_HALF_WINDOW * scale)
-    off, idx = _kg.query_neighbours(pts, pts, half, half)
-    _, bx, by = _kg.neighbour_planes(pts, off, idx, pts, np.ascontiguousarray(disparity[good]),
-                                     SLANT_PLANE_INLIER * scale, SLANT_PLANE_MIN)
+    off, idx = query_neighbours(pts, pts, half, half, threads=threads)
+    _, bx, by = neighbour_planes(pts, off, idx, pts, np.ascontiguousarray(disparity[good]),
+                                 SLANT_PLANE_INLIER * scale, SLANT_PLANE_MIN, threads=threads)
     gx[good] = np.clip(bx, -SLANT_GRADIENT_LIMIT, SLANT_GRADIENT_LIMIT)
     gy[good] = np.clip(by, -SLANT_GRADIENT_LIMIT, SLANT_GRADIENT_LIMIT)
     return gx, gy

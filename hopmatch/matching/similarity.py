@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._kernels import similarity as _ks
-from .._threads import map_chunks
+from .._threads import current_threads, map_chunks, map_ranges, run_both
 
 #: Regulariser of eq. 7's normalisation (added to the windows' mean contrast).
 EPS = 1e-6
@@ -16,7 +16,9 @@ def window_contrasts(desc_l: np.ndarray, desc_r: np.ndarray):
     normalises eq. 7 (:func:`similarity_distance`); None for binary (uint8) descriptors."""
     if desc_l.dtype == np.uint8:
         return None
-    return _ks.row_mean_abs(desc_l), _ks.row_mean_abs(desc_r)
+    # the two images' rows on two threads when there are (each row on its own: the same)
+    return run_both(lambda: _ks.row_mean_abs(desc_l), lambda: _ks.row_mean_abs(desc_r),
+                    current_threads())
 
 
 def similarity_distance(desc_l: np.ndarray, desc_r: np.ndarray, ni: np.ndarray,
@@ -83,8 +85,13 @@ def shift_minimal(desc_l: np.ndarray, desc_r: np.ndarray, qi: np.ndarray,
     if len(qi) == 0 or not (_window_shaped(desc_l) and _window_shaped(desc_r)):
         return keep
     s = int(round(np.sqrt(desc_l.shape[1])))
-    shift_keep, windows = _ks.shift_minimal_windows(desc_l, desc_r, qi, ti, s, *WINDOW_MEAN_TOL)
-    return shift_keep if windows else keep
+    # in contiguous ranges of the pairs on up to current_threads() threads: each pair's test
+    # is its own, and the rows are windows when they are in every range
+    parts = map_ranges(lambda lo, hi: _ks.shift_minimal_windows(
+        desc_l, desc_r, qi[lo:hi], ti[lo:hi], s, *WINDOW_MEAN_TOL), len(qi))
+    if not all(windows for _, windows in parts):
+        return keep
+    return parts[0][0] if len(parts) == 1 else np.concatenate([k for k, _ in parts])
 
 
 

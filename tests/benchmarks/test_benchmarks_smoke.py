@@ -363,3 +363,19 @@ def test_wrong_matches_smoke():
                         r"[\d.]+ \([\d.]+\) \| [\d.]+ \([\d.]+\) \| \d+/\d+", lines[1]), lines[1]
     assert re.fullmatch(r"pooled: \d+ scored, \d+ wrong; the test drops \d+ wrong and \d+ "
                         r"correct", lines[2]), lines[2]
+
+
+def test_kernel_ab_smoke():
+    """The kernel rows and the two-thread bound issue 17's speed work quotes
+    (benchmarks/kernel_ab.py), with and without another checkout (this one, so the
+    outputs must be identical)."""
+    out = run_script("kernel_ab.py", "--against", str(ROOT))
+    assert_lines(
+        out,
+        r"\| kernel call \| items \| CPU ms \| other CPU ms \| ratio \| outputs \|",
+        table_row(r"refine_rows #1", r"\d+", NUM, NUM, NUM, "identical"),
+        table_row(r"row_search #1", r"\d+", NUM, NUM, NUM, "identical"),
+        rf"match_stereo\(threads=2\), 2 calls: .*speed-up \(CPU / calling thread\): {NUM} .*",
+    )
+    assert_lines(run_script("kernel_ab.py"), r"\| kernel call \| items \| CPU ms \|",
+                 table_row(r"refine_rows #2", r"\d+", NUM))

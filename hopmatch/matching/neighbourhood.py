@@ -1,0 +1,44 @@
+"""The neighbour lists and local disparity planes of the guided pass and the refinement
+(:func:`hopmatch._kernels.guided.query_neighbours`, :func:`~hopmatch._kernels.guided.
+neighbour_planes`), computed on contiguous ranges of the queries in up to ``threads``
+threads (:func:`hopmatch._threads.map_ranges`).
+
+Each query's list and plane are computed from that query alone by the same code (the
+grid of the matched points is built alike for every range), so the results are
+bit-identical to one call for any thread count.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._kernels import guided as _kg
+from .._threads import map_ranges
+
+
+def query_neighbours(queries, matched, half_w, half_h, threads: int | None = None):
+    """:func:`hopmatch._kernels.guided.query_neighbours` (same arguments, same CSR
+    ``(offsets, indices)``), in up to ``threads`` threads."""
+    parts = map_ranges(lambda lo, hi: _kg.query_neighbours(queries[lo:hi], matched, half_w,
+                                                           half_h), len(queries), threads)
+    if len(parts) == 1:
+        return parts[0]
+    offsets = [np.zeros(1, dtype=np.int64)]
+    base = 0
+    for off, _ in parts:
+        offsets.append(off[1:] + base)
+        base += int(off[-1])
+    return np.concatenate(offsets), np.concatenate([idx for _, idx in parts])
+
+
+def neighbour_planes(queries, offsets, idx, m_left, values, inlier, min_count,
+                     threads: int | None = None):
+    """:func:`hopmatch._kernels.guided.neighbour_planes` (same arguments, same
+    ``(prediction, gx, gy)``), in up to ``threads`` threads."""
+    parts = map_ranges(lambda lo, hi: _kg.neighbour_planes(queries[lo:hi], offsets[lo:hi + 1],
+                                                           idx, m_left, values, inlier,
+                                                           min_count),
+                       len(offsets) - 1, threads)
+    if len(parts) == 1:
+        return parts[0]
+    return tuple(np.concatenate([p[k] for p in parts]) for k in range(3))
