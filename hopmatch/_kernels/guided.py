@@ -187,7 +187,7 @@ def _zncc_bilinear(a, sa2, g, x, y, s):
 
 @jit
 def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer, back,
-               min_zncc, margin, eps, gain_tol=1.0):
+               min_zncc, margin, eps, gain_tol=1.0, clip=False):
     """The guided search of each query (left point) along its row of the right image.
 
     For query q (left point ``i = queries[q]`` at (xl, yl)), the right row is
@@ -210,6 +210,12 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
     at (xr, yr), g the relative gain ``mean |a| / mean |b|`` clipped to ``[1 / gain_tol,
     gain_tol]`` (:func:`~hopmatch._kernels.similarity.gain_within`, as the network's
     similarity; 1 when ``gain_tol`` is 1).
+
+    ``clip``: the columns ``c`` are first clipped to those whose windows (and the refined
+    window's one more column) lie inside the right image, ``rad <= c <= W - rad - 2``
+    (``rad`` = ``s // 2``), and the search goes on over the rest when it keeps at least
+    three columns (the seeds' search of the whole range: a right point beyond the image
+    is no candidate); otherwise a search leaving the image is :data:`OUTSIDE`.
     """
     h, w = g_r.shape
     hl, wl = g_l.shape
@@ -241,11 +247,16 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
             continue
         c0 = int(np.floor(centre[q] + 0.5))
         first = c0 - outer - 1
+        last = c0 + outer + 1
+        if clip:  # the columns whose windows lie inside the image
+            first = max(first, rad)
+            last = min(last, w - rad - 2)
+        n_span = last - first + 1
         x_lo = first - rad
-        x_hi = c0 + outer + 1 + rad + 1  # one more column for the refined window
+        x_hi = last + rad + 1  # one more column for the refined window
         fy = np.floor(yr)
         y_top = int(fy) - rad
-        if x_lo < 0 or x_hi > w - 1 or y_top < 0 or y_top + s > h - 1:
+        if n_span < 3 or x_lo < 0 or x_hi > w - 1 or y_top < 0 or y_top + s > h - 1:
             continue
         sa2 = 0.0
         for t in range(n):
@@ -255,13 +266,13 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
             status[q] = FLAT
             continue
         _strip(g_r, x_lo, x_hi - x_lo + 1, y_top, yr - fy, s, strip)
-        _correlate(af, sa2, strip, s, span, acc, colsum, colsq, z)
+        _correlate(af, sa2, strip, s, n_span, acc, colsum, colsq, z)
         mb = 1
-        for m in range(1, span - 1):
+        for m in range(1, n_span - 1):
             if z[m] > z[mb]:
                 mb = m
         z2 = -1.0
-        for m in range(1, span - 1):
+        for m in range(1, n_span - 1):
             if abs(m - mb) >= 2 and z[m] > z2:
                 z2 = z[m]
         best[q] = z[mb]
