@@ -398,11 +398,13 @@ def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
 
     def run(first, count, new_from=None):
         """Rounds ``first...`` (with ``new_from``: each searching only where the matches
-        since ``new_from``, then since the round before, are neighbours); returns where
-        the last round's matches start in ``qi`` when no round ran after it (matches no
-        round has propagated from yet), else None."""
+        since ``new_from``, then since the round before, are neighbours); returns ``(the
+        last round run, where its matches start in qi)``, the second None when it found
+        none (every match before it has been propagated from)."""
         fresh = None
+        last = first - 1
         for r in range(first, first + count):
+            last = r
             start = len(qi)
             gm = guided_pass(pts_l, right, desc_l, desc_r, g_l, g_r, qi, ti, y_offset,
                              config, margin=margin if r == 0 else max(margin, later_margin),
@@ -410,15 +412,15 @@ def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
                              min_field=0.0 if r == 0 else later_field, matched_similarity=sim,
                              new_from=new_from, threads=threads)
             if len(gm.query_idx) == 0:
-                return None
+                return r, None
             add(gm)
             fresh = start
             if new_from is not None:
                 new_from = start
-        return fresh
+        return last, fresh
 
     rounds = max(int(rounds), 1)
-    fresh = run(0, rounds)
+    last, fresh = run(0, rounds)
     if seed_rounds > 0:
         start = len(qi)
         gm = seed_pass(pts_l, right, desc_l, g_l, g_r, qi, ti, y_offset, config, sim,
@@ -426,9 +428,11 @@ def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
         if len(gm.query_idx):
             add(gm)
             # the round after the seeds has round 1's settings, and the window of the
-            # last round is at least as large: where none of the seeds, nor of the last
-            # round's matches, is a neighbour, it would find what the last round found
-            run(1, int(seed_rounds), new_from=(None if not GUIDED_SEED_NEAR
+            # last round (when it is round 1 or later) is at least as large: where none
+            # of the seeds, nor of the last round's matches, is a neighbour, it would find
+            # what the last round found
+            near = GUIDED_SEED_NEAR and last >= 1
+            run(1, int(seed_rounds), new_from=(None if not near
                                                else start if fresh is None else fresh))
 
     if not found:

@@ -365,11 +365,13 @@ def test_guided_pass_from_new_matches_searches_only_where_they_are_neighbours(wi
                            new_from=len(qi)).query_idx) == 0  # nothing new: no search
 
 
-def test_rounds_after_the_seeds_search_only_where_something_changed(monkeypatch):
+@pytest.mark.parametrize("rounds", [1, 2])
+def test_rounds_after_the_seeds_search_only_where_something_changed(monkeypatch, rounds):
     """The round after the seeds (round 1's settings, a window no larger than the last
     round's) searches only where a seed or a match of the last round is a neighbour
     (GUIDED_SEED_NEAR): elsewhere it would find what the last round found, so every
-    match is that of the round searching every unmatched point."""
+    match is that of the round searching every unmatched point (after round 0 alone,
+    whose settings differ, it searches every point)."""
     from hopmatch.matching import guided as guided_module
 
     left, right = _scene(noise=6.0)
@@ -385,9 +387,9 @@ def test_rounds_after_the_seeds_search_only_where_something_changed(monkeypatch)
     for near in (False, True):
         monkeypatch.setattr(guided_module, "GUIDED_SEED_NEAR", near)
         got[near] = guided_rounds(pl, pr, dl, dr, gl, gr, qi, ti, yoff, net.config,
-                                  margin=0.1, rounds=2, seed_rounds=1)
+                                  margin=0.1, rounds=rounds, seed_rounds=1)
     before = guided_rounds(pl, pr, dl, dr, gl, gr, qi, ti, yoff, net.config, margin=0.1,
-                           rounds=2, seed_rounds=0)
+                           rounds=rounds, seed_rounds=0)
     seeds = seed_pass(pl, np.r_[pr, before.right_points].astype(np.float32), dl, gl, gr,
                       np.r_[qi, before.query_idx],
                       np.r_[ti, len(pr) + np.arange(len(before.query_idx))], yoff,
