@@ -1,7 +1,7 @@
 """Per-scene quality of match_stereo's defaults, pass by pass, against ground truth.
 
 Run: ``python benchmarks/passes.py [--scenes NAME ...] [--perturb NAME ...] [--params JSON]
-[--guided JSON] [--halves JSON] [--baselines] [--ranking] [--refine-radius N]``
+[--guided JSON] [--halves JSON] [--baselines] [--ranking] [--refine-radius N] [--timing N]``
 
 For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
 scene there) it prints: matches, correct@1px and precision@1px
@@ -28,6 +28,13 @@ or any combination joined by ``+``.
 ``--refine-radius N`` refines with that window half-side on every scene instead of the
 size rule (``hopmatch.matching.stereo_match.refine_radius``; docs/parameters.md,
 "Refinement window and image size").
+
+``--timing N`` adds, per scene (unperturbed), what ``--guided`` costs: ``match_stereo``
+run N times with the module's own constants and N times with ``--guided``'s, interleaved
+in one process, timed by ``time.thread_time`` (one thread: a loaded machine's other
+processes count less than in wall time); it prints the medians of both, of the guided
+pass's share (the thread time of ``hopmatch.matching.guided.guided_rounds`` within them)
+and of the paired differences.
 """
 
 from __future__ import annotations
@@ -158,19 +165,25 @@ def main(argv=None) -> int:
     ap.add_argument("--baselines", action="store_true", help="also SIFT and SGBM")
     ap.add_argument("--ranking", action="store_true",
                     help="also the precision of the best k %% by distance")
+    ap.add_argument("--timing", type=int, default=0,
+                    help="also time --guided against the module's constants (N runs each)")
     args = add_refine_radius_option(ap).parse_args(argv)
     single_thread()
     force_refine_radius(args.refine_radius)
     params = json.loads(args.params)
+    own = {}
     for name, value in json.loads(args.guided).items():
         if not (name.startswith("GUIDED_") and hasattr(guided, name)):
             raise SystemExit(f"--guided: hopmatch.matching.guided has no constant {name!r}")
+        own[name] = getattr(guided, name)
         setattr(guided, name, value)
     for name, value in json.loads(args.halves).items():
         if not (name.startswith("HALF_") and hasattr(halves, name)):
             raise SystemExit(f"--halves: hopmatch.matching.halves has no constant {name!r}")
         setattr(halves, name, value)
     names = args.scenes or datasets.list_scenes()
+    if args.timing > 0:
+        print_timing(names, params, own, json.loads(args.guided), args.timing)
     for spec in args.perturb:
         print(f"## perturbation: {spec or 'none'}; params {params or 'defaults'}"
               + (f"; guided {args.guided}" if args.guided != "{}" else "")
@@ -239,6 +252,51 @@ def main(argv=None) -> int:
             line += f"; SIFT {tot['sift']}, SGBM {tot['sgbm']} ({tot['c'] / tot['sgbm']:.2f}x)"
         print(line + "\n", flush=True)
     return 0
+
+
+def print_timing(names, params, own: dict, changed: dict, runs: int) -> None:
+    """The ``--timing`` lines: per scene, ``match_stereo`` with the constants ``own`` (the
+    module's) and ``changed`` (``--guided``'s), ``runs`` interleaved runs each after one
+    of each to warm up; medians of thread time, of the guided pass and of the paired
+    differences (``changed`` minus ``own``), in ms."""
+    print(f"## timing: --guided {json.dumps(changed)} against the module's "
+          f"{json.dumps(own)}, {runs} interleaved runs each (thread time, one thread)")
+    from hopmatch.matching import stereo_match
+
+    rounds = stereo_match.guided_rounds
+    spent = []
+
+    def timed_rounds(*a, **k):
+        t0 = time.thread_time()
+        try:
+            return rounds(*a, **k)
+        finally:
+            spent.append(time.thread_time() - t0)
+
+    stereo_match.guided_rounds = timed_rounds
+    for n in names:
+        scene = datasets.load(n)
+        times = {"own": [], "changed": []}
+        guided_ms = {"own": [], "changed": []}
+        for k in range(runs + 1):
+            for label, values in (("own", own), ("changed", changed)):
+                for name, value in values.items():
+                    setattr(guided, name, value)
+                spent.clear()
+                t0 = time.thread_time()
+                hopmatch.match_stereo(scene.left, scene.right, **params)
+                if k:  # the first of each warms up
+                    times[label].append(1000 * (time.thread_time() - t0))
+                    guided_ms[label].append(1000 * sum(spent))
+        diff = np.subtract(times["changed"], times["own"])
+        print(f"{n}: match_stereo {np.median(times['own']):.1f} ms with the module's, "
+              f"{np.median(times['changed']):.1f} ms with --guided (guided pass "
+              f"{np.median(guided_ms['own']):.1f} / {np.median(guided_ms['changed']):.1f} "
+              f"ms); paired difference: median {np.median(diff):+.1f} ms", flush=True)
+    stereo_match.guided_rounds = rounds
+    for name, value in changed.items():  # the table that follows runs with --guided's
+        setattr(guided, name, value)
+    print()
 
 
 if __name__ == "__main__":

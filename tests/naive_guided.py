@@ -58,14 +58,21 @@ def normalised_distance(a, b, eps=1e-6, gain_tol=1.0):
 
 
 def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer, back,
-                   min_zncc, margin, gain_tol=1.0):
+                   min_zncc, margin, gain_tol=1.0, clip=False):
     """The row search of one query as ``hopmatch._kernels.guided.row_search`` documents it:
     ``(found, best, second, xr, similarity)``; ``found`` False when any test fails, and
-    the values NaN when the search did not reach them."""
+    the values NaN when the search did not reach them. ``clip``: the columns are first
+    clipped to those whose windows (and one more column) lie in the right image; the
+    caller checks the rest of the kernel's ``OUTSIDE``."""
     s = int(round(math.sqrt(len(left_window))))
     yr = yl - y_offset
     c0 = math.floor(centre + 0.5)
     cols = list(range(c0 - outer - 1, c0 + outer + 2))
+    if clip:
+        cols = [c for c in cols if s // 2 <= c <= g_r.shape[1] - s // 2 - 2]
+        if len(cols) < 3:
+            nan = float("nan")
+            return False, nan, nan, nan, nan
     z = [zncc(left_window, window(g_r, c, yr, s)) for c in cols]
     inner_idx = range(1, len(cols) - 1)
     mb = max(inner_idx, key=lambda m: (z[m], -m))  # first best

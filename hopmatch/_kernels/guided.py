@@ -102,10 +102,13 @@ def _strip(g, x_lo, n_cols, y_top, ay, rows, out):
     ``x_lo + c`` for ``r < rows``, ``c < n_cols``."""
     by = 1.0 - ay
     for r in range(rows):
-        y = y_top + r
+        # row views and a loop from 0: no checks for negative indices, so the loop
+        # vectorises (the same arithmetic as g[y, x] per element: 2-4x faster)
+        a = g[y_top + r, x_lo:x_lo + n_cols]
+        b = g[y_top + r + 1, x_lo:x_lo + n_cols]
+        o = out[r]
         for c in range(n_cols):
-            x = x_lo + c
-            out[r, c] = by * np.float64(g[y, x]) + ay * np.float64(g[y + 1, x])
+            o[c] = by * np.float64(a[c]) + ay * np.float64(b[c])
 
 
 @jit
@@ -168,12 +171,11 @@ def _zncc_bilinear(a, sa2, g, x, y, s):
     sbb = 0.0
     sab = 0.0
     for r in range(s):
-        yy = y0 + r
+        g0 = g[y0 + r, x0:x0 + s + 1]  # row views, as in _strip
+        g1 = g[y0 + r + 1, x0:x0 + s + 1]
         for c in range(s):
-            xx = x0 + c
-            v = ((1.0 - ay) * ((1.0 - ax) * np.float64(g[yy, xx]) + ax * np.float64(g[yy, xx + 1]))
-                 + ay * ((1.0 - ax) * np.float64(g[yy + 1, xx])
-                         + ax * np.float64(g[yy + 1, xx + 1])))
+            v = ((1.0 - ay) * ((1.0 - ax) * np.float64(g0[c]) + ax * np.float64(g0[c + 1]))
+                 + ay * ((1.0 - ax) * np.float64(g1[c]) + ax * np.float64(g1[c + 1])))
             sb += v
             sbb += v * v
             sab += a[r * s + c] * v
@@ -185,7 +187,7 @@ def _zncc_bilinear(a, sa2, g, x, y, s):
 
 @jit
 def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer, back,
-               min_zncc, margin, eps, gain_tol=1.0):
+               min_zncc, margin, eps, gain_tol=1.0, clip=False):
     """The guided search of each query (left point) along its row of the right image.
 
     For query q (left point ``i = queries[q]`` at (xl, yl)), the right row is
@@ -208,6 +210,12 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
     at (xr, yr), g the relative gain ``mean |a| / mean |b|`` clipped to ``[1 / gain_tol,
     gain_tol]`` (:func:`~hopmatch._kernels.similarity.gain_within`, as the network's
     similarity; 1 when ``gain_tol`` is 1).
+
+    ``clip``: the columns ``c`` are first clipped to those whose windows (and the refined
+    window's one more column) lie inside the right image, ``rad <= c <= W - rad - 2``
+    (``rad`` = ``s // 2``), and the search goes on over the rest when it keeps at least
+    three columns (the seeds' search of the whole range: a right point beyond the image
+    is no candidate); otherwise a search leaving the image is :data:`OUTSIDE`.
     """
     h, w = g_r.shape
     hl, wl = g_l.shape
@@ -239,11 +247,16 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
             continue
         c0 = int(np.floor(centre[q] + 0.5))
         first = c0 - outer - 1
+        last = c0 + outer + 1
+        if clip:  # the columns whose windows lie inside the image
+            first = max(first, rad)
+            last = min(last, w - rad - 2)
+        n_span = last - first + 1
         x_lo = first - rad
-        x_hi = c0 + outer + 1 + rad + 1  # one more column for the refined window
+        x_hi = last + rad + 1  # one more column for the refined window
         fy = np.floor(yr)
         y_top = int(fy) - rad
-        if x_lo < 0 or x_hi > w - 1 or y_top < 0 or y_top + s > h - 1:
+        if n_span < 3 or x_lo < 0 or x_hi > w - 1 or y_top < 0 or y_top + s > h - 1:
             continue
         sa2 = 0.0
         for t in range(n):
@@ -253,13 +266,13 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
             status[q] = FLAT
             continue
         _strip(g_r, x_lo, x_hi - x_lo + 1, y_top, yr - fy, s, strip)
-        _correlate(af, sa2, strip, s, span, acc, colsum, colsq, z)
+        _correlate(af, sa2, strip, s, n_span, acc, colsum, colsq, z)
         mb = 1
-        for m in range(1, span - 1):
+        for m in range(1, n_span - 1):
             if z[m] > z[mb]:
                 mb = m
         z2 = -1.0
-        for m in range(1, span - 1):
+        for m in range(1, n_span - 1):
             if abs(m - mb) >= 2 and z[m] > z2:
                 z2 = z[m]
         best[q] = z[mb]

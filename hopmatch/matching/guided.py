@@ -68,10 +68,20 @@ GUIDED_SEED_MARGIN = 0.25
 #: ...is kept when its field, with the matches and the other such peaks as neighbours,
 #: exceeds this (eq. 12's bracket; the network's test is > 0).
 GUIDED_SEED_FIELD = 4.0
-#: Guided rounds after the seeds, propagating from them (0, the default: no seeds; 1 adds
-#: about 1 % of correct matches pooled, a quarter on KITTI #70, for about 55 ms per
-#: motorcycle pair: docs/parameters.md, "Propagation and seeds").
-GUIDED_SEED_ROUNDS = 0
+#: The seeds' search keeps the part of the range whose right windows lie in the image
+#: (near the image's left edge a point's whole range does not; False: such a point is not
+#: searched).
+GUIDED_SEED_CLIP = True
+#: Guided rounds after the seeds, propagating from them (0: no seeds; 1, the default, adds
+#: about 1 % of correct matches pooled and a quarter on KITTI #70: docs/parameters.md,
+#: "Propagation and seeds" and "Seeds on, cheaply").
+GUIDED_SEED_ROUNDS = 1
+#: The rounds after the seeds search only the unmatched left points with a seed, or a
+#: match of the last round before the seeds (then of the round before), among their
+#: neighbours: elsewhere nothing changed since the last search (the round after the seeds
+#: has round 1's settings, and no larger a window than the last round), so they find the
+#: same (False: every unmatched point is searched again).
+GUIDED_SEED_NEAR = True
 
 
 def _choose_csr(off_a, idx_a, off_b, idx_b, use_b):
@@ -127,7 +137,7 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
                 search: int | None = None, back: int | None = None,
                 min_zncc: float | None = None, min_support: int | None = None,
                 window: float = 1.0, min_field: float = 0.0,
-                matched_similarity=None,
+                matched_similarity=None, new_from: int | None = None,
                 threads: int | None = None) -> GuidedMatches:
     """Guided matches of the left points the network left unmatched (rectified pairs).
 
@@ -164,6 +174,12 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     matched_similarity : (M,) float ndarray, optional
         Eq. 7's normalised distance of each matched pair, when known (the pairs need not
         have descriptors in ``desc_r``: :func:`guided_rounds` passes guided matches).
+    new_from : int, optional
+        Search only the unmatched left points whose matched neighbours (in the window
+        they take them from) include one of the matches ``query_idx[new_from:]``: with
+        the same settings, a point whose neighbours are those of an earlier search finds
+        what it found then (:func:`guided_rounds` passes the matches no round has
+        propagated from yet, after the seeds). None: every unmatched point.
     threads : int, optional
         Search the queries in up to this many threads (None:
         :func:`hopmatch._threads.current_threads`), in contiguous chunks; each query's
@@ -197,6 +213,14 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     matched = np.zeros(n_left, dtype=bool)
     matched[qi] = True
     queries = np.flatnonzero(~matched)
+    if new_from is not None:  # first only where the new matches can reach
+        near_off, _ = query_neighbours(
+            np.ascontiguousarray(pts_l[queries]), m_left[new_from:],
+            np.float32(max(window, 1.0) * config.neighbour_width / 2),
+            np.float32(max(window, 1.0) * config.neighbour_height / 2), threads=threads)
+        queries = queries[np.diff(near_off) > 0]
+        if len(queries) == 0:
+            return empty_guided()
     qpts = np.ascontiguousarray(pts_l[queries])
     off, idx = query_neighbours(qpts, m_left, np.float32(config.neighbour_width / 2),
                                 np.float32(config.neighbour_height / 2), threads=threads)
@@ -217,7 +241,11 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
         use = np.zeros(len(queries), dtype=bool)
         use[need] = True
         off, idx = _choose_csr(off, idx, off_w, idx_n, use)
-    rows = np.flatnonzero(np.diff(off) >= min_support)
+    enough = np.diff(off) >= min_support
+    if new_from is not None:  # then where they are among the neighbours
+        owner = np.repeat(np.arange(len(queries)), np.diff(off))
+        enough &= np.bincount(owner[idx >= new_from], minlength=len(queries)) > 0
+    rows = np.flatnonzero(enough)
     if len(rows) == 0:
         return empty_guided()
     disp = m_left[:, 0].astype(np.float64) - m_right[:, 0]
@@ -257,7 +285,8 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     """Seeds where the matches do not reach: the left points not in ``query_idx`` with
     fewer than ``GUIDED_MIN_SUPPORT`` of them in the network's window, each searched
     along its whole row of the right image (the disparity range ``[min_disparity,
-    max_disparity]`` of ``config``, resolved), kept when the best ZNCC is at least
+    max_disparity]`` of ``config``, resolved; with :data:`GUIDED_SEED_CLIP` the part of it
+    whose right windows lie in the image), kept when the best ZNCC is at least
     ``min_zncc``, a local maximum, ahead by ``margin`` of the best one at least two pixels
     away in the range, searching back finds the left point again (:func:`row_search` with
     the whole range as its search and radius), and its field exceeds ``min_field``, its
@@ -294,7 +323,7 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     status, best, second, xr, sim = map_chunks(
         lambda qs, cs, ys: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys, float(outer),
                                          outer, GUIDED_BACK, float(min_zncc), float(margin),
-                                         EPS, float(config.gain_tolerance)),
+                                         EPS, float(config.gain_tolerance), GUIDED_SEED_CLIP),
         (q, centre, yoff), threads, order=row_order(pts_l[q, 1]))
     f = np.flatnonzero(status == _k.FOUND)
     if len(f) == 0:
@@ -342,7 +371,10 @@ def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     in the network's window, the window ``(1 + growth) ** r`` times as large
     (``window``). With ``seed_rounds`` > 0, the left points still unmatched then get
     :func:`seed_pass`'s seeds, and ``seed_rounds`` more rounds (numbered 1, 2... again)
-    propagate from everything found. None: :data:`GUIDED_ROUNDS`,
+    propagate from everything found: with :data:`GUIDED_SEED_NEAR`, the first searches
+    only the points with a seed or a match of the last round among their neighbours
+    (``new_from``; elsewhere it would find what the last round found), each later one
+    only those with a match of the round before. None: :data:`GUIDED_ROUNDS`,
     :data:`GUIDED_LATER_MARGIN`, :data:`GUIDED_GROWTH`, :data:`GUIDED_LATER_FIELD`,
     :data:`GUIDED_SEED_ROUNDS`. Other arguments as :func:`guided_pass`. Returns the
     guided matches of all rounds (the seeds after the first ``rounds``), in round order;
@@ -368,25 +400,45 @@ def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
         right = np.r_[right, gm.right_points].astype(np.float32)
         sim = np.r_[sim, gm.similarity]
 
-    def run(first, count):
+    def run(first, count, new_from=None):
+        """Rounds ``first...`` (with ``new_from``: each searching only where the matches
+        since ``new_from``, then since the round before, are neighbours); returns ``(the
+        last round run, where its matches start in qi)``, the second None when it found
+        none (every match before it has been propagated from)."""
+        fresh = None
+        last = first - 1
         for r in range(first, first + count):
+            last = r
+            start = len(qi)
             gm = guided_pass(pts_l, right, desc_l, desc_r, g_l, g_r, qi, ti, y_offset,
                              config, margin=margin if r == 0 else max(margin, later_margin),
                              window=(1.0 + growth) ** r,
                              min_field=0.0 if r == 0 else later_field, matched_similarity=sim,
-                             threads=threads)
+                             new_from=new_from, threads=threads)
             if len(gm.query_idx) == 0:
-                break
+                return r, None
             add(gm)
+            fresh = start
+            if new_from is not None:
+                new_from = start
+        return last, fresh
 
     rounds = max(int(rounds), 1)
-    run(0, rounds)
+    last, fresh = run(0, rounds)
     if seed_rounds > 0:
+        start = len(qi)
         gm = seed_pass(pts_l, right, desc_l, g_l, g_r, qi, ti, y_offset, config, sim,
                        threads=threads)
         if len(gm.query_idx):
             add(gm)
-            run(1, int(seed_rounds))
+            # the round after the seeds has round 1's settings, and the window of the
+            # last round (when it is round 1 or later) is at least as large: where none
+            # of the seeds, nor of the last round's matches, is a neighbour, it would find
+            # what the last round found
+            near = GUIDED_SEED_NEAR and last >= 1
+            run(1, int(seed_rounds), new_from=(None if not near
+                                               else start if fresh is None else fresh))
+
     if not found:
         return empty_guided()
     return GuidedMatches(*(np.concatenate([getattr(g, f.name) for g in found])

@@ -98,6 +98,40 @@ def test_row_search_matches_the_reference(gain, gain_tol):
     assert found > len(pts) // 2  # the case exercises the found branch
 
 
+def test_clipped_row_search_matches_the_reference():
+    """``clip=True`` (the seeds' search of the whole range): a search whose columns leave
+    the right image keeps those whose windows lie in it, as the reference does; without
+    it such a search is OUTSIDE."""
+    g_l, g_r, pts, desc = _search_case()
+    q = np.arange(len(pts), dtype=np.int64)
+    outer = 30  # the whole range of a seed: wider than the margin of most points
+    rng = np.random.default_rng(5)
+    centre = pts[:, 0].astype(np.float64) - 7.3 + rng.uniform(-6, 6, len(pts))
+    yoff = rng.uniform(-0.4, 0.4, len(pts))
+    args = (g_l, g_r, pts, desc, q, centre, yoff, float(outer), outer, 1, 0.5, 0.1, 1e-6,
+            1.0)
+    status, best, second, xr, sim = _k.row_search(*args, True)
+    plain = _k.row_search(*args)[0]
+    found = clipped = 0
+    for m in range(len(pts)):
+        ok, b, s2, x, si = ng.row_search_one(g_l, g_r, float(pts[m, 0]), float(pts[m, 1]),
+                                             desc[m], centre[m], yoff[m], float(outer),
+                                             outer, 1, 0.5, 0.1, clip=True)
+        assert (status[m] == _k.FOUND) == ok, m
+        assert best[m] == pytest.approx(b, abs=1e-6, nan_ok=True)
+        assert second[m] == pytest.approx(s2, abs=1e-6, nan_ok=True)
+        if plain[m] == _k.OUTSIDE:
+            clipped += 1
+        else:  # the whole search fits: clipping changes nothing
+            assert status[m] == plain[m]
+        if ok:
+            found += 1
+            assert xr[m] == pytest.approx(x, abs=1e-4)
+            assert sim[m] == pytest.approx(si, abs=1e-6)
+    assert clipped > 5 and found > len(pts) // 3
+    assert (status[plain == _k.OUTSIDE] == _k.FOUND).sum() > 0  # found only when clipped
+
+
 def test_continuity_field_matches_the_reference():
     ml = RNG.uniform(0, 60, (30, 2)).astype(np.float32)
     mr = (ml - np.float32([8, 0.2]) + RNG.normal(0, 0.5, (30, 2))).astype(np.float32)
@@ -296,6 +330,78 @@ def test_guided_rounds_propagate_from_earlier_rounds():
     assert len(np.unique(more.query_idx)) == len(more.query_idx)
 
 
+@pytest.mark.parametrize("window", [1.0, 2.0])
+def test_guided_pass_from_new_matches_searches_only_where_they_are_neighbours(window):
+    """guided_pass with ``new_from=k`` returns exactly the matches of the full pass whose
+    left point has one of the matches ``k...`` among its neighbours (in the window it
+    takes them from, by the reference), with the same values: the rest of the search is
+    unchanged, and it is what the rounds after the seeds use."""
+    left, right = _scene(noise=6.0)
+    det = hopmatch.DericheMoravecDetector()
+    pl, _, dl, gl = det.detect_and_describe(left)
+    pr, _, dr, gr = det.detect_and_describe(right)
+    net = hopmatch.match_stereo(left, right, max_disparity=12, guided=False,
+                                refine=False).network
+    config = net.config
+    qi, ti = net.query_idx[::3], net.train_idx[::3]
+    yoff = np.zeros(len(pl))
+    k = len(qi) // 2
+    full = guided_pass(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config, margin=0.2,
+                       window=window)
+    new = guided_pass(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config, margin=0.2,
+                      window=window, new_from=k)
+    ml = pl[qi]
+    nb = ng.neighbours(pl[full.query_idx], ml, config.neighbour_width / 2,
+                       config.neighbour_height / 2)
+    wide = ng.neighbours(pl[full.query_idx], ml, window * config.neighbour_width / 2,
+                         window * config.neighbour_height / 2)
+    reached = np.array([max(nb[m] if len(nb[m]) >= 3 else wide[m]) >= k
+                        for m in range(len(full.query_idx))])
+    assert 0 < reached.sum() < len(reached)  # both kinds of points
+    np.testing.assert_array_equal(new.query_idx, full.query_idx[reached])
+    for name in ("right_points", "fields", "zncc", "similarity"):
+        np.testing.assert_array_equal(getattr(new, name), getattr(full, name)[reached])
+    assert len(guided_pass(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config,
+                           new_from=len(qi)).query_idx) == 0  # nothing new: no search
+
+
+@pytest.mark.parametrize("rounds", [1, 2])
+def test_rounds_after_the_seeds_search_only_where_something_changed(monkeypatch, rounds):
+    """The round after the seeds (round 1's settings, a window no larger than the last
+    round's) searches only where a seed or a match of the last round is a neighbour
+    (GUIDED_SEED_NEAR): elsewhere it would find what the last round found, so every
+    match is that of the round searching every unmatched point (after round 0 alone,
+    whose settings differ, it searches every point)."""
+    from hopmatch.matching import guided as guided_module
+
+    left, right = _scene(noise=6.0)
+    det = hopmatch.DericheMoravecDetector()
+    pl, _, dl, gl = det.detect_and_describe(left)
+    pr, _, dr, gr = det.detect_and_describe(right)
+    net = hopmatch.match_stereo(left, right, max_disparity=12, guided=False,
+                                refine=False).network
+    keep = pl[net.query_idx, 0] < 80  # seeds to the right of the matches kept
+    qi, ti = net.query_idx[keep][::2], net.train_idx[keep][::2]
+    yoff = np.zeros(len(pl))
+    got = {}
+    for near in (False, True):
+        monkeypatch.setattr(guided_module, "GUIDED_SEED_NEAR", near)
+        got[near] = guided_rounds(pl, pr, dl, dr, gl, gr, qi, ti, yoff, net.config,
+                                  margin=0.1, rounds=rounds, seed_rounds=1)
+    before = guided_rounds(pl, pr, dl, dr, gl, gr, qi, ti, yoff, net.config, margin=0.1,
+                           rounds=rounds, seed_rounds=0)
+    seeds = seed_pass(pl, np.r_[pr, before.right_points].astype(np.float32), dl, gl, gr,
+                      np.r_[qi, before.query_idx],
+                      np.r_[ti, len(pr) + np.arange(len(before.query_idx))], yoff,
+                      net.config, np.r_[similarity_distance(
+                          dl, dr, qi.astype(np.int32), ti.astype(np.int32),
+                          gain_tolerance=net.config.gain_tolerance), before.similarity])
+    n = len(before.query_idx) + len(seeds.query_idx)
+    assert len(seeds.query_idx) > 0 and len(got[False].query_idx) > n  # a round after them
+    for f in ("query_idx", "right_points", "fields", "zncc", "second", "similarity"):
+        np.testing.assert_array_equal(getattr(got[True], f), getattr(got[False], f))
+
+
 def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test():
     """seed_pass: the seeds are the left points without a match and with fewer than 3
     matches in the network's window whose row search over the whole disparity range (the
@@ -332,17 +438,16 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test():
     assert min(map(len, near)) < 3 <= max(map(len, near))  # both kinds of points
     for i in unmatched[[len(nb) < 3 for nb in near]]:  # only where no match reaches
         x, y = float(pl[i, 0]), float(pl[i, 1])
-        c0 = np.floor(x - 0.5 * (lo + hi) + 0.5)
-        if (c0 - outer - 1 - rad < 0 or c0 + outer + rad + 2 > w - 1
-                or np.floor(y) - rad < 0 or np.floor(y) - rad + size > h - 1):
-            continue  # the kernel's OUTSIDE: a window of the search leaves the image
+        if np.floor(y) - rad < 0 or np.floor(y) - rad + size > h - 1:
+            continue  # the kernel's OUTSIDE: the windows leave the image (the columns
+            # are clipped to the image: row_search_one's clip)
         if not (np.floor(x) - GUIDED_BACK - rad >= 0
                 and np.floor(x) + GUIDED_BACK + rad + 1 <= w - 1):
             continue  # the back search's windows would leave the image
         ok, _, _, xr, sim = ng.row_search_one(gl, gr, x, y, dl[i], x - 0.5 * (lo + hi), 0.0,
                                               float(outer), outer, GUIDED_BACK,
                                               GUIDED_SEED_ZNCC, GUIDED_SEED_MARGIN,
-                                              config.gain_tolerance)
+                                              config.gain_tolerance, clip=True)
         if ok:
             peaks.append((i, xr, sim))
     pk = np.array([p[0] for p in peaks])
