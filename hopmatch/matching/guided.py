@@ -132,6 +132,18 @@ def empty_guided() -> GuidedMatches:
                          np.zeros(0, np.float32), z, z, z, z)
 
 
+def accepted_matches(keep, q, xr, yr, u, best, second, sim) -> GuidedMatches:
+    """The searched left points ``q`` where ``keep`` holds, as :class:`GuidedMatches`: right
+    points ``(xr, yr)``, fields ``u`` (and their :func:`match_distance`), peak and second
+    ZNCC ``best``, ``second`` and eq. 7's distance ``sim``, each indexed like ``q``."""
+    acc = np.flatnonzero(keep)
+    return GuidedMatches(
+        query_idx=q[acc].astype(np.int32),
+        right_points=np.c_[xr[acc], yr[acc]].astype(np.float32),
+        distances=match_distance(u[acc]).astype(np.float32), fields=u[acc],
+        zncc=best[acc], second=second[acc], similarity=sim[acc])
+
+
 def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_offset,
                 config, *, margin: float = 0.1, radius: float | None = None,
                 search: int | None = None, back: int | None = None,
@@ -270,12 +282,8 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
             config.slope, config.similarity_weight, config.input_bias, gxq, gyq),),
         (np.ascontiguousarray(pts_l[q]), np.where(ok, xr, np.nan), yr, sim, rows, gx, gy),
         threads)[0]
-    acc = np.flatnonzero(ok & (np.nan_to_num(u, nan=-np.inf) > min_field))
-    return GuidedMatches(
-        query_idx=q[acc].astype(np.int32),
-        right_points=np.c_[xr[acc], yr[acc]].astype(np.float32),
-        distances=match_distance(u[acc]).astype(np.float32), fields=u[acc],
-        zncc=best[acc], second=second[acc], similarity=sim[acc])
+    return accepted_matches(ok & (np.nan_to_num(u, nan=-np.inf) > min_field), q, xr, yr, u,
+                            best, second, sim)
 
 
 def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, config,
@@ -350,12 +358,8 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     u = _k.continuity_field(qpts, xr, yr, sim, off, idx, np.arange(len(q)), m_left, m_right,
                             m_sim, config.theta, config.slope, config.similarity_weight,
                             config.input_bias, gx, gy)
-    acc = np.flatnonzero(np.nan_to_num(u, nan=-np.inf) > min_field)
-    return GuidedMatches(
-        query_idx=q[acc].astype(np.int32),
-        right_points=np.c_[xr[acc], yr[acc]].astype(np.float32),
-        distances=match_distance(u[acc]).astype(np.float32), fields=u[acc],
-        zncc=best[acc], second=second[acc], similarity=sim[acc])
+    return accepted_matches(np.nan_to_num(u, nan=-np.inf) > min_field, q, xr, yr, u, best,
+                            second, sim)
 
 
 def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_offset,
