@@ -3,9 +3,9 @@ both passes, and a ranking whose best k matches have non-increasing precision.""
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
+from synthetic_pairs import occlusion_pair
 
 import hopmatch
 from hopmatch.matching import halves
@@ -17,31 +17,6 @@ from hopmatch.matching.confidence import (
     match_confidence,
 )
 from hopmatch.matching.similarity import match_distance
-
-
-def texture(h, w, seed, sigma=1.2):
-    """A smooth random texture (float32, 20..220)."""
-    t = cv2.GaussianBlur(np.random.default_rng(seed).normal(size=(h, w)), (0, 0), sigma)
-    return ((t - t.min()) / (t.max() - t.min()) * 200 + 20).astype(np.float32)
-
-
-def layered_scene(seed, noise=10.0, d_bg=4, d_fg=16):
-    """A textured background at disparity ``d_bg`` and a textured rectangle in front of it
-    at ``d_fg`` (the background it hides in the right image has no match), noise on the
-    right image; returns ``(left, right, ground truth)``."""
-    h, w = 200, 300
-    bg = texture(h, w + 40, seed)
-    fg = texture(h, w + 40, seed + 7)
-    y0, y1, x0, x1 = 60, 140, 80, 200
-    left = bg[:, d_bg:d_bg + w].copy()
-    right = bg[:, :w].copy()
-    gt = np.full((h, w), float(d_bg))
-    left[y0:y1, x0:x1] = fg[y0:y1, x0:x1]
-    right[y0:y1, x0 - d_fg:x1 - d_fg] = fg[y0:y1, x0:x1]
-    gt[y0:y1, x0:x1] = d_fg
-    right = right + np.random.default_rng(seed + 100).normal(0, noise, right.shape)
-    return (np.clip(left, 0, 255).astype(np.uint8), np.clip(right, 0, 255).astype(np.uint8),
-            gt)
 
 
 def test_fields_of_distances_inverts_match_distance():
@@ -71,7 +46,7 @@ def test_keeping_the_best_k_gives_non_increasing_precision(seed, monkeypatch):
     the half-window test, which drops nearly all of these wrong matches:
     tests/matching/test_matching_halves.py.)"""
     monkeypatch.setattr(halves, "HALF_CHECK", False)
-    left, right, gt = layered_scene(seed)
+    left, right, gt = occlusion_pair(seed)
     res = hopmatch.match_stereo(left, right, max_disparity=24, input_bias=0.0,
                                 similarity_gate=None)
     pl, pr = res.matched_left, res.matched_right
@@ -86,7 +61,7 @@ def test_keeping_the_best_k_gives_non_increasing_precision(seed, monkeypatch):
 
 
 def test_distances_are_one_scale_and_the_paper_keeps_the_field():
-    left, right, _ = layered_scene(0)
+    left, right, _ = occlusion_pair(0)
     res = hopmatch.match_stereo(left, right, max_disparity=24)
     assert res.refinement is not None
     u = np.r_[fields_of_distances(res.network.distances), res.guided.fields]

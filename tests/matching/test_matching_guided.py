@@ -191,6 +191,20 @@ def _scene(shift=6, noise=0.0):
     return left, np.clip(noisy, 0, 255).astype(np.uint8)
 
 
+def _network_case(rows=None):
+    """The noisy plane of ``_scene(noise=6.0)`` (its first ``rows`` rows if given), detected
+    and described on both sides, and the network's matches on it (no guided pass, no
+    refinement): ``(pl, dl, gl, pr, dr, gr, network)`` as guided_pass takes them."""
+    left, right = _scene(noise=6.0)
+    if rows is not None:
+        left, right = left[:rows], right[:rows]
+    det = hopmatch.DericheMoravecDetector()
+    pl, _, dl, gl = det.detect_and_describe(left)
+    pr, _, dr, gr = det.detect_and_describe(right)
+    net = hopmatch.match_stereo(left, right, max_disparity=12, guided=False,
+                                refine=False).network
+    return pl, dl, gl, pr, dr, gr, net
+
 @pytest.mark.parametrize("step, window", [(2, 1.0), (12, 2.0)])
 def test_guided_matches_pass_every_acceptance_test(step, window):
     """Each guided match passes the tests it is accepted on, recomputed by the references:
@@ -293,12 +307,7 @@ def test_guided_rounds_propagate_from_earlier_rounds():
     points neither matched, each passing the tests of guided_pass run on that union with
     the later margin, the later minimum field and the grown window (the first round is
     guided_pass itself)."""
-    left, right = _scene(noise=6.0)
-    det = hopmatch.DericheMoravecDetector()
-    pl, _, dl, gl = det.detect_and_describe(left)
-    pr, _, dr, gr = det.detect_and_describe(right)
-    net = hopmatch.match_stereo(left, right, max_disparity=12, guided=False,
-                                refine=False).network
+    pl, dl, gl, pr, dr, gr, net = _network_case()
     qi, ti = net.query_idx[::4], net.train_idx[::4]
     yoff = np.zeros(len(pl))
     one = guided_pass(pl, pr, dl, dr, gl, gr, qi, ti, yoff, net.config, margin=0.1)
@@ -336,12 +345,7 @@ def test_guided_pass_from_new_matches_searches_only_where_they_are_neighbours(wi
     left point has one of the matches ``k...`` among its neighbours (in the window it
     takes them from, by the reference), with the same values: the rest of the search is
     unchanged, and it is what the rounds after the seeds use."""
-    left, right = _scene(noise=6.0)
-    det = hopmatch.DericheMoravecDetector()
-    pl, _, dl, gl = det.detect_and_describe(left)
-    pr, _, dr, gr = det.detect_and_describe(right)
-    net = hopmatch.match_stereo(left, right, max_disparity=12, guided=False,
-                                refine=False).network
+    pl, dl, gl, pr, dr, gr, net = _network_case()
     config = net.config
     qi, ti = net.query_idx[::3], net.train_idx[::3]
     yoff = np.zeros(len(pl))
@@ -374,12 +378,7 @@ def test_rounds_after_the_seeds_search_only_where_something_changed(monkeypatch,
     whose settings differ, it searches every point)."""
     from hopmatch.matching import guided as guided_module
 
-    left, right = _scene(noise=6.0)
-    det = hopmatch.DericheMoravecDetector()
-    pl, _, dl, gl = det.detect_and_describe(left)
-    pr, _, dr, gr = det.detect_and_describe(right)
-    net = hopmatch.match_stereo(left, right, max_disparity=12, guided=False,
-                                refine=False).network
+    pl, dl, gl, pr, dr, gr, net = _network_case()
     keep = pl[net.query_idx, 0] < 80  # seeds to the right of the matches kept
     qi, ti = net.query_idx[keep][::2], net.train_idx[keep][::2]
     yoff = np.zeros(len(pl))
@@ -408,13 +407,7 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test():
     reference) finds a peak with a field above the seed minimum, the matches and the
     other such peaks (all but itself) as neighbours; far from the few matches left, only
     the peaks' agreement among themselves can carry them."""
-    left, right = _scene(noise=6.0)
-    left, right = left[:64], right[:64]  # fewer points for the slow reference
-    det = hopmatch.DericheMoravecDetector()
-    pl, _, dl, gl = det.detect_and_describe(left)
-    pr, _, dr, gr = det.detect_and_describe(right)
-    net = hopmatch.match_stereo(left, right, max_disparity=12, guided=False,
-                                refine=False).network
+    pl, dl, gl, pr, dr, gr, net = _network_case(rows=64)  # fewer points for the reference
     config = net.config
     keep = pl[net.query_idx, 0] < 60  # the matches of the left strip only
     qi, ti = net.query_idx[keep], net.train_idx[keep]

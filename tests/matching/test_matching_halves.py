@@ -3,10 +3,10 @@ and what it drops on a synthetic pair with a depth edge."""
 
 from __future__ import annotations
 
-import cv2
 import naive_guided as ng
 import numpy as np
 import pytest
+from synthetic_pairs import occlusion_pair, texture
 
 import hopmatch
 from hopmatch._kernels import halves as kh
@@ -17,11 +17,6 @@ H, W = 120, 200
 FG = (60, 120)
 D_BG, D_FG = 4, 10
 
-
-def texture(h, w, seed, sigma=1.2):
-    rng = np.random.default_rng(seed)
-    t = cv2.GaussianBlur(rng.normal(size=(h, w)), (0, 0), sigma)
-    return (t - t.min()) / (t.max() - t.min()) * 200 + 20
 
 
 def layered_pair():
@@ -40,31 +35,13 @@ def layered_pair():
     return left, right
 
 
-def occlusion_scene(seed, noise=10.0, d_bg=4, d_fg=16):
-    """tests/matching/test_matching_confidence.py's ``layered_scene``: a textured rectangle
-    at ``d_fg`` in front of a textured background at ``d_bg`` (the background it hides in
-    the right image has no match), noise on the right image; ``(left, right, truth)``."""
-    h, w = 200, 300
-    bg = texture(h, w + 40, seed).astype(np.float32)
-    fg = texture(h, w + 40, seed + 7).astype(np.float32)
-    y0, y1, x0, x1 = 60, 140, 80, 200
-    left = bg[:, d_bg:d_bg + w].copy()
-    right = bg[:, :w].copy()
-    gt = np.full((h, w), float(d_bg))
-    left[y0:y1, x0:x1] = fg[y0:y1, x0:x1]
-    right[y0:y1, x0 - d_fg:x1 - d_fg] = fg[y0:y1, x0:x1]
-    gt[y0:y1, x0:x1] = d_fg
-    right = right + np.random.default_rng(seed + 100).normal(0, noise, right.shape)
-    return (np.clip(left, 0, 255).astype(np.uint8), np.clip(right, 0, 255).astype(np.uint8),
-            gt)
-
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_the_wrong_matches_beside_an_occluding_edge_are_dropped(seed, monkeypatch):
     """With lenient settings (no similarity gate, input bias 0) about 25 wrong matches get
     through on the occlusion pair, the background beside the rectangle matched with its
     disparity; the half-window test drops nearly all of them for a few correct ones."""
-    left, right, gt = occlusion_scene(seed)
+    left, right, gt = occlusion_pair(seed)
 
     def counts():
         res = hopmatch.match_stereo(left, right, max_disparity=24, input_bias=0.0,

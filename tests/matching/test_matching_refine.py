@@ -3,10 +3,10 @@ synthetic sub-pixel shifts of noise-free textures."""
 
 from __future__ import annotations
 
-import cv2
 import naive_guided as ng
 import numpy as np
 import pytest
+from synthetic_pairs import texture
 
 from hopmatch._kernels import refine as kr
 from hopmatch.errors import InvalidArgumentError
@@ -25,12 +25,6 @@ from hopmatch.matching.refine import (
     disparity_gradients,
     refine_disparities,
 )
-
-
-def texture(h, w, seed=0, sigma=1.2):
-    rng = np.random.default_rng(seed)
-    t = cv2.GaussianBlur(rng.normal(size=(h, w)), (0, 0), sigma)
-    return (t - t.min()) / (t.max() - t.min()) * 200 + 20
 
 
 def shifted(img, d):
