@@ -7,6 +7,7 @@ import cv2
 import naive_guided as ng
 import numpy as np
 import pytest
+from synthetic_pairs import texture
 
 import hopmatch
 from hopmatch._kernels import guided as _k
@@ -32,13 +33,6 @@ from hopmatch.matching.stereo_match import PASS_GUIDED, PASS_NETWORK
 RNG = np.random.default_rng(7)
 
 
-def texture(h, w, seed=0, sigma=1.5):
-    """A smooth random texture (float32, 20..220)."""
-    rng = np.random.default_rng(seed)
-    t = cv2.GaussianBlur(rng.normal(size=(h, w)), (0, 0), sigma)
-    return ((t - t.min()) / (t.max() - t.min()) * 200 + 20).astype(np.float32)
-
-
 def test_query_neighbours_match_the_reference():
     queries = RNG.uniform(0, 100, (60, 2)).astype(np.float32)
     matched = RNG.uniform(0, 100, (200, 2)).astype(np.float32)
@@ -60,7 +54,7 @@ def test_neighbour_medians_are_np_median():
 
 
 def _search_case(seed=3, shift=7.3):
-    g_l = texture(80, 120, seed)
+    g_l = texture(80, 120, seed, sigma=1.5).astype(np.float32)
     x = np.arange(120, dtype=np.float64)
     # right(x) = left(x + shift): disparity `shift` everywhere (bilinear-exact warp of a
     # smooth texture is close enough for the search; the refinement test is exact)
@@ -185,7 +179,7 @@ def test_neighbour_planes_match_the_reference():
 def _scene(shift=6, noise=0.0):
     """A textured plane at disparity ``shift``; ``noise``: standard deviation of the noise
     added to the right image (the network then leaves points for the guided pass)."""
-    img = texture(160, 220, seed=11, sigma=1.2)
+    img = texture(160, 220, seed=11).astype(np.float32)
     left = np.clip(img, 0, 255).astype(np.uint8)
     noisy = np.roll(img, -shift, axis=1) + np.random.default_rng(0).normal(0, noise, img.shape)
     return left, np.clip(noisy, 0, 255).astype(np.uint8)
@@ -204,6 +198,7 @@ def _network_case(rows=None):
     net = hopmatch.match_stereo(left, right, max_disparity=12, guided=False,
                                 refine=False).network
     return pl, dl, gl, pr, dr, gr, net
+
 
 @pytest.mark.parametrize("step, window", [(2, 1.0), (12, 2.0)])
 def test_guided_matches_pass_every_acceptance_test(step, window):

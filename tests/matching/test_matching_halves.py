@@ -18,7 +18,6 @@ FG = (60, 120)
 D_BG, D_FG = 4, 10
 
 
-
 def layered_pair():
     """A textured background at disparity D_BG behind a textured square (rows 20-100,
     columns FG of the left image) at D_FG: ``(left, right)`` float64, rendered pixel by
@@ -33,7 +32,6 @@ def layered_pair():
             xs = x + D_FG  # the left column the right pixel x shows if it is foreground
             right[y, x] = (fg[y, xs] if inside and FG[0] <= xs < FG[1] else bg[y, x + D_BG])
     return left, right
-
 
 
 @pytest.mark.parametrize("seed", [0, 1])
