@@ -27,7 +27,15 @@ Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large 
   ``detectAndCompute`` on both images for scale; then precision at 1 px by where the
   matches lie (the spread of the original ground truth over the 5 x 5 original pixels
   around each: flat below 0.5 px, slanted 0.5-5, a depth edge from 5 px) and the mean
-  signed disparity error of the matches within 2 px.
+  signed disparity error of the matches within 2 px; last, the same mean error of
+  ``match_stereo`` on the original pair (within 2 / factor px), times the factor. The
+  truth of a match is :func:`upsampled_truth` (the original map read bilinearly at the
+  pixel-centre position of ``cv2.resize``); "nearest" figures read the nearest original
+  pixel instead (``cv2.INTER_NEAREST`` of the map, as before this reading).
+- ``truth``: how well each scene's ground truth fits its own images, without a matcher
+  (:func:`truth_fit`): the offset ``c`` and the gradient terms ``sx gx + sy gy`` that,
+  added to the ground truth, give the lowest photometric error of the right image warped
+  into the left (locally normalised, cubic B-spline sampling), and the vertical offset.
 - ``ranges``: the range ``max_disparity=None`` finds on every shared scene against its
   ground truth (share of ground-truth pixels inside).
 
@@ -36,7 +44,8 @@ Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large 
 "Refinement window and image size").
 
 ``--smoke``: motorcycle (centre crop) and tsukuba, one perturbation, two chessboard pairs,
-a 1000 x 675 large pair: a check that the script works (figures meaningless).
+a 1000 x 675 large pair, ``truth`` on a crop of motorcycle: a check that the script works
+(figures meaningless).
 """
 
 from __future__ import annotations
@@ -73,8 +82,11 @@ from hopmatch.stereo import StereoCalibration, epipolar_distances  # noqa: E402
 #: (rotation in degrees, vertical shift in px, scale) of the right image: the extremes of
 #: the issue's range both ways, and the pair of its "where it stands" paragraph.
 PERTURBATIONS = ((5.0, 30.0, 1.03), (-5.0, -30.0, 0.97), (2.0, 8.0, 1.0))
-SECTIONS = ("perturbed", "chessboards", "large", "ranges")
+SECTIONS = ("perturbed", "chessboards", "large", "ranges", "truth")
 PATTERN = (9, 6)
+#: The scenes of the ``truth`` section by default: the large pair's and Middlebury 2014's.
+TRUTH_SCENES = ("motorcycle", "middlebury2014/MotorcycleE", "middlebury2014/Teddy",
+                "middlebury2014/ArtL")
 LARGE = (2964, 2000)
 SMOKE_LARGE = (1000, 675)
 
@@ -100,6 +112,91 @@ def truth(left_pts, disparity, A):
     known = np.isfinite(d) & (t[:, 0] >= 0) & (t[:, 0] <= w - 1) & (t[:, 1] >= 0) & (
         t[:, 1] <= h - 1)
     return t, known
+
+
+def upsampled_truth(disparity, points, factor, surface=1.0):
+    """(N,) float64: the ground truth of the pair upsampled ``factor`` times by
+    ``cv2.resize`` at its ``points`` (N x 2, x y of the upsampled image), in upsampled px.
+
+    ``disparity`` (the original map) is read at the original position ``((x + 0.5) /
+    factor - 0.5, (y + 0.5) / factor - 0.5)`` (``cv2.resize``'s pixel centres), bilinearly
+    where the 2 x 2 original pixels around it are known and within ``surface`` px of one
+    another (one surface), else at the nearest original pixel (NaN where unknown or
+    outside); times ``factor``. ``surface < 0``: the nearest pixel everywhere (what
+    ``cv2.INTER_NEAREST`` of the map gives at an integer factor)."""
+    g = np.asarray(disparity, dtype=np.float64)
+    h, w = g.shape
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    xs, ys = (pts[:, 0] + 0.5) / factor - 0.5, (pts[:, 1] + 0.5) / factor - 0.5
+    xn, yn = np.floor(xs + 0.5).astype(int), np.floor(ys + 0.5).astype(int)
+    inside = (xn >= 0) & (xn < w) & (yn >= 0) & (yn < h)
+    out = np.full(len(pts), np.nan)
+    out[inside] = g[yn[inside], xn[inside]]
+    x0 = np.clip(np.floor(xs).astype(int), 0, w - 2)
+    y0 = np.clip(np.floor(ys).astype(int), 0, h - 2)
+    tx, ty = np.clip(xs - x0, 0.0, 1.0), np.clip(ys - y0, 0.0, 1.0)
+    q = np.stack([g[y0, x0], g[y0, x0 + 1], g[y0 + 1, x0], g[y0 + 1, x0 + 1]])
+    with np.errstate(invalid="ignore"):
+        one = inside & np.isfinite(q).all(axis=0) & (q.max(axis=0) - q.min(axis=0) <= surface)
+    bil = ((1 - ty) * ((1 - tx) * q[0] + tx * q[1]) + ty * ((1 - tx) * q[2] + tx * q[3]))
+    out[one] = bil[one]
+    return out * factor
+
+
+def truth_fit(scene, samples=200_000, seed=0):
+    """``(c, sx, sy, dy)``: the ground truth of ``scene`` fitted to its own images: the
+    right image (locally normalised over 7 x 7 pixels, cubic B-spline) sampled at ``(x -
+    (d + c + sx gx + sy gy), y - dy)`` is closest (mean squared difference) to the left at
+    ``samples`` known pixels (x, y) on smooth ground truth, d the ground truth there and
+    (gx, gy) its central-difference gradient; coordinate search on 0.01 px (offsets) and
+    0.02 (gradient terms) grids, three rounds."""
+    import scipy.ndimage as ndi
+
+    def norm(image):
+        i = (cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image)
+        i = i.astype(np.float64)
+        mu = cv2.blur(i, (7, 7))
+        sd = np.sqrt(np.maximum(cv2.blur(i * i, (7, 7)) - mu * mu, 0.0))
+        return (i - mu) / (sd + 2.0)
+
+    left, coef = norm(scene.left), ndi.spline_filter(norm(scene.right), order=3)
+    g = scene.disparity.astype(np.float64)
+    gx = np.full_like(g, np.nan)
+    gy = np.full_like(g, np.nan)
+    gx[:, 1:-1] = (g[:, 2:] - g[:, :-2]) / 2
+    gy[1:-1] = (g[2:] - g[:-2]) / 2
+    ok = np.isfinite(g) & (np.abs(gx) < 1) & (np.abs(gy) < 1)
+    ok &= np.arange(g.shape[1])[None, :] - np.nan_to_num(g) > 10
+    ys, xs = np.nonzero(ok)
+    k = np.random.default_rng(seed).choice(len(xs), min(samples, len(xs)), replace=False)
+    ys, xs = ys[k], xs[k]
+    d, a, gxk, gyk = g[ys, xs], left[ys, xs], gx[ys, xs], gy[ys, xs]
+
+    def error(c, sx, sy, dy):
+        v = ndi.map_coordinates(coef, [ys - dy, xs - (d + c + sx * gxk + sy * gyk)], order=3,
+                                prefilter=False, mode="nearest")
+        return float(np.mean((a - v) ** 2))
+
+    p = dict(c=0.0, sx=0.0, sy=0.0, dy=0.0)
+    grids = dict(c=np.arange(-30, 31) / 100, sx=np.arange(-40, 41) / 50,
+                 sy=np.arange(-40, 41) / 50, dy=np.arange(-50, 51) / 100)
+    for _ in range(3):
+        for key, grid in grids.items():
+            p[key] = float(grid[int(np.argmin([error(**dict(p, **{key: v})) for v in grid]))])
+    return p["c"], p["sx"], p["sy"], p["dy"]
+
+
+def truth_fits(names, smoke: bool) -> None:
+    print("## Ground truth against its own images (photometric fit, no matcher)\n")
+    print("| scene | offset c | sx (gx) | sy (gy) | vertical |")
+    print("|---|---:|---:|---:|---:|")
+    for name in names:
+        scene = datasets.load(name)
+        if smoke:
+            scene = smoke_scene(scene)
+        c, sx, sy, dy = truth_fit(scene, samples=20_000 if smoke else 200_000)
+        print(f"| {name} | {c:+.2f} | {sx:+.2f} | {sy:+.2f} | {dy:+.2f} |", flush=True)
+    print()
 
 
 def reference(scene):
@@ -265,16 +362,16 @@ import json, resource, sys, time
 sys.path.insert(0, {here!r})
 import cv2, numpy as np
 from _common import force_refine_radius, motorcycle_bgr, single_thread
+from unrectified import upsampled_truth
 single_thread()
 force_refine_radius(None if sys.argv[4] == "None" else int(sys.argv[4]))
 import hopmatch
 from hopmatch.evaluate import score_matches
 left, right, gt0 = motorcycle_bgr()
-gt = gt0
+left0, right0 = left, right
 size = (int(sys.argv[1]), int(sys.argv[2]))
 left = cv2.resize(cv2.cvtColor(left, cv2.COLOR_BGR2GRAY), size, interpolation=cv2.INTER_CUBIC)
 right = cv2.resize(cv2.cvtColor(right, cv2.COLOR_BGR2GRAY), size, interpolation=cv2.INTER_CUBIC)
-gt = cv2.resize(gt, size, interpolation=cv2.INTER_NEAREST) * (size[0] / gt.shape[1])
 if sys.argv[3] == "sift":
     sift = cv2.SIFT_create()
     t0 = time.perf_counter()
@@ -287,22 +384,38 @@ else:
     out = dict(seconds=time.perf_counter() - t0, keypoints=len(r.points_left),
                matches=len(r.query_idx), lo=r.network.config.min_disparity,
                hi=r.network.config.max_disparity, neurons=len(r.network.neuron_left))
-    s = score_matches(r.matched_left, r.matched_right, gt, thresholds=(1.0, 2.0))
-    out.update(p1=s.precision[1.0], p2=s.precision[2.0], c1=s.correct[1.0])
     f = size[0] / gt0.shape[1]
-    ml = r.matched_left[s.scored]
+    ml, mr = r.matched_left, r.matched_right
+    def errors(ml, mr, factor, surface=1.0):
+        e = (ml[:, 0] - mr[:, 0]) - upsampled_truth(gt0, ml, factor, surface)
+        known = np.isfinite(e)
+        dy = np.abs(ml[:, 1] - mr[:, 1])[known]
+        return e[known], dy, known
+    e, dy, known = errors(ml, mr, f)
+    out.update(p1=float(np.mean((np.abs(e) <= 1) & (dy <= 1))),
+               p2=float(np.mean((np.abs(e) <= 2) & (dy <= 2))),
+               c1=int(np.sum((np.abs(e) <= 1) & (dy <= 1))))
+    en, dyn, _ = errors(ml, mr, f, surface=-1.0)
+    out.update(p1_nearest=float(np.mean((np.abs(en) <= 1) & (dyn <= 1))),
+               bias_nearest=float(np.mean(en[np.abs(en) <= 2.0])))
+    ml = ml[known]
     xo = np.clip(np.floor((ml[:, 0] + 0.5) / f).astype(int), 0, gt0.shape[1] - 1)
     yo = np.clip(np.floor((ml[:, 1] + 0.5) / f).astype(int), 0, gt0.shape[0] - 1)
     g = np.nan_to_num(gt0, nan=0.0).astype(np.float32)
     k = np.ones((5, 5), np.uint8)
     spread = (cv2.dilate(g, k) - cv2.erode(g, k))[yo, xo]
-    e = s.errors
-    good = np.abs(e) <= 1.0
-    good &= np.abs(ml[:, 1] - r.matched_right[s.scored][:, 1]) <= 1.0
+    good = (np.abs(e) <= 1.0) & (dy <= 1.0)
     for name, lo, hi in (("flat", 0.0, 0.5), ("slanted", 0.5, 5.0), ("edge", 5.0, np.inf)):
         m = (spread >= lo) & (spread < hi)
         out[name] = [int(m.sum()), float(good[m].mean()) if m.any() else float("nan")]
+        w = m & (np.abs(e) <= 2.0)
+        out[name + "_bias"] = float(e[w].mean()) if w.any() else float("nan")
     out["bias"] = float(np.mean(e[np.abs(e) <= 2.0]))
+    r0 = hopmatch.match_stereo(cv2.cvtColor(left0, cv2.COLOR_BGR2GRAY),
+                               cv2.cvtColor(right0, cv2.COLOR_BGR2GRAY))
+    e0, _, _ = errors(r0.matched_left, r0.matched_right, 1.0)
+    out["bias_original"] = float(np.mean(e0[np.abs(e0) <= 2.0 / f])) * f
+    out["f_inv"] = 1.0 / f
 out["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 print(json.dumps(out))
 """
@@ -327,7 +440,13 @@ def large(size, refine_radius=None) -> None:
           f"on both images {s['seconds']:.2f} s (ratio {h['seconds'] / s['seconds']:.2f})")
     print("precision at 1 px by ground truth: " + "; ".join(
         f"{name} {h[name][1]:.3f} of {h[name][0]}" for name in ("flat", "slanted", "edge"))
-          + f"; mean error within 2 px {h['bias']:+.3f} px\n")
+          + f"; mean error within 2 px {h['bias']:+.3f} px")
+    print("mean error within 2 px by ground truth: " + "; ".join(
+        f"{name} {h[name + '_bias']:+.3f}" for name in ("flat", "slanted", "edge"))
+          + f"; on the original pair (within {2 * h['f_inv']:.2f} px) x {1 / h['f_inv']:g}: "
+          f"{h['bias_original']:+.3f} px")
+    print(f"with the nearest original pixel as truth: precision {h['p1_nearest']:.3f} at 1 px, "
+          f"mean error within 2 px {h['bias_nearest']:+.3f} px\n")
 
 
 def ranges(names) -> None:
@@ -371,6 +490,9 @@ def main(argv=None) -> int:
             chessboards(args.smoke)
         elif section == "ranges":
             ranges(names)
+        elif section == "truth":
+            truth_fits(["motorcycle"] if args.smoke else (args.scenes or TRUTH_SCENES),
+                       args.smoke)
     return 0
 
 

@@ -1,14 +1,18 @@
 """Smoke run of ``benchmarks/unrectified.py`` (the figures of issue 18 that
-docs/pipelines.md and docs/parameters.md quote): it runs and prints every section."""
+docs/pipelines.md and docs/parameters.md quote): it runs and prints every section; and its
+ground truth of the upsampled pair against a slow reference."""
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 import subprocess
 import sys
 from pathlib import Path
 
+import cv2
+import numpy as np
 from conftest import SHARED_DATA
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -36,3 +40,62 @@ def test_unrectified_smoke(shared_data):
                      r"2 px [+-][\d.]+ px$", out, re.M)
     assert re.search(r"^\| middlebury/tsukuba \| [\d.]+\.\.[\d.]+ \| 5\.0\.\.14\.0 \| 1\.0000 \|$",
                      out, re.M)
+    assert re.search(r"^mean error within 2 px by ground truth: flat [+-][\d.]+; slanted "
+                     r"(?:[+-][\d.]+|nan); edge (?:[+-][\d.]+|nan); on the original pair "
+                     r"\(within [\d.]+ px\) x [\d.]+: [+-][\d.]+ px$", out, re.M)
+    assert re.search(r"^with the nearest original pixel as truth: precision 0\.\d+ at 1 px, "
+                     r"mean error within 2 px [+-][\d.]+ px$", out, re.M)
+    assert "## Ground truth against its own images (photometric fit, no matcher)" in out
+    assert re.search(r"^\| motorcycle \| [+-][\d.]+ \| [+-][\d.]+ \| [+-][\d.]+ \| "
+                     r"[+-][\d.]+ \|$", out, re.M)
+
+
+def _unrectified():
+    """benchmarks/unrectified.py as a module (it imports benchmarks/_common.py)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    spec = importlib.util.spec_from_file_location("unrectified",
+                                                  ROOT / "benchmarks" / "unrectified.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _reference_truth(disparity, x, y, factor, surface):
+    """One point of ``upsampled_truth``, written out: the pixel-centre position of
+    cv2.resize, its 2 x 2 original pixels, bilinear on one surface, else the nearest."""
+    xs, ys = (x + 0.5) / factor - 0.5, (y + 0.5) / factor - 0.5
+    h, w = disparity.shape
+    xn, yn = int(np.floor(xs + 0.5)), int(np.floor(ys + 0.5))
+    if not (0 <= xn < w and 0 <= yn < h):
+        return np.nan
+    x0, y0 = min(max(int(np.floor(xs)), 0), w - 2), min(max(int(np.floor(ys)), 0), h - 2)
+    q = [disparity[y0 + j, x0 + i] for j in (0, 1) for i in (0, 1)]
+    if surface >= 0 and np.all(np.isfinite(q)) and max(q) - min(q) <= surface:
+        tx, ty = min(max(xs - x0, 0.0), 1.0), min(max(ys - y0, 0.0), 1.0)
+        v = (1 - ty) * ((1 - tx) * q[0] + tx * q[1]) + ty * ((1 - tx) * q[2] + tx * q[3])
+    else:
+        v = disparity[yn, xn]
+    return v * factor
+
+
+def test_upsampled_truth_matches_a_slow_reference():
+    m = _unrectified()
+    yy, xx = np.mgrid[0:20, 0:30].astype(np.float64)
+    gt = 10.0 + 0.3 * xx + 0.2 * yy  # a plane ...
+    gt[:, 18:] += 15.0  # ... with a depth edge ...
+    gt[12:15, 3:6] = np.nan  # ... and unknown pixels
+    rng = np.random.default_rng(0)
+    pts = np.c_[rng.uniform(-3, 123, 3000), rng.uniform(-3, 83, 3000)]
+    for surface in (1.0, -1.0):
+        got = m.upsampled_truth(gt, pts, 4, surface)
+        want = np.array([_reference_truth(gt, x, y, 4, surface) for x, y in pts])
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    # on one surface: the plane itself, at the position cv2.resize samples
+    inner = (pts[:, 0] > 2) & (pts[:, 0] < 68) & (pts[:, 1] > 2) & (pts[:, 1] < 42)  # rows < 11
+    plane = 4 * (10.0 + 0.3 * ((pts[:, 0] + 0.5) / 4 - 0.5) + 0.2 * ((pts[:, 1] + 0.5) / 4 - 0.5))
+    np.testing.assert_allclose(m.upsampled_truth(gt, pts, 4)[inner], plane[inner], atol=1e-9)
+    # nearest everywhere: the map cv2.INTER_NEAREST upsamples, read at the nearest pixel
+    big = cv2.resize(gt.astype(np.float32), (120, 80), interpolation=cv2.INTER_NEAREST) * 4
+    ok = (pts >= 0).all(axis=1) & (pts[:, 0] < 119.5) & (pts[:, 1] < 79.5)
+    xi, yi = np.floor(pts[ok] + 0.5).astype(int).T
+    np.testing.assert_allclose(m.upsampled_truth(gt, pts[ok], 4, -1.0), big[yi, xi], rtol=1e-6)
