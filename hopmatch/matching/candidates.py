@@ -51,6 +51,11 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
 
     Bounds beyond :data:`BAND_LIMIT` are clamped to it (the same pairs).
 
+    The rectified search runs on contiguous ranges of the left points' visit order in up
+    to :func:`hopmatch._threads.current_threads` threads (:func:`hopmatch._threads.
+    map_ranges`): each left point's pairs come from its own search, so the pairs, their
+    order and the budget's verdict are those of one call for any thread count.
+
     ``contrast_gate=(contrasts, gate)`` (rectified search only; ``contrasts`` from
     :func:`window_contrasts`) leaves out the pairs :func:`similarity_distance` would put past
     ``gate`` on their contrasts alone (with the same ``gain_tolerance``); the budget still

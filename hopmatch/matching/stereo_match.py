@@ -226,9 +226,9 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         keywords.
     threads : int, optional
         Threads to use: the left and right detection run concurrently, and the
-        similarity of the candidate pairs, the guided pass and the refinement split their
-        points between threads (rectified pairs; with ``rectified=False`` only the
-        similarity does). None (default):
+        search of the candidate pairs along rows (the band search), their similarity, the
+        guided pass and the refinement split their points between threads (rectified
+        pairs; with ``rectified=False`` only the similarity does). None (default):
         :func:`hopmatch.getNumThreads` (every core unless :func:`hopmatch.setNumThreads`
         said otherwise, as OpenCV does). Results are bit-identical for any count; peak
         memory of the detection is that of both images at once with 2 or more.
