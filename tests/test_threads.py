@@ -171,3 +171,50 @@ def test_shift_minimal_is_the_same_in_threads():
             assert shift_minimal(dl, bad, qi, ti).all()
     with using_threads(1):
         assert shift_minimal(dl, bad, qi, ti).all()
+
+
+@pytest.mark.parametrize("spread", [500.0, 1e6])
+def test_row_order_is_the_stable_sort_of_the_rows(spread):
+    """Rows spanning fewer than 2**16 values are sorted as uint16 offsets (radix sort),
+    wider spans and NaN as floats: the same permutation either way."""
+    rng = np.random.default_rng(6)
+    y = rng.uniform(-spread, spread, 5000)
+    y[::7] = np.floor(y[::7])  # ties on whole rows
+    for ys in (y, np.r_[y, np.nan], y.astype(np.float32)):
+        want = np.argsort(np.floor(np.asarray(ys, dtype=np.float64)), kind="stable")
+        np.testing.assert_array_equal(row_order(ys), want)
+    assert len(row_order(np.zeros(0))) == 0
+
+
+@pytest.mark.parametrize("threads", [2, 3])
+def test_candidate_pairs_are_bit_identical_in_threads(threads):
+    """The band search cut into ranges of the left points' visit order: the same pairs in
+    the same order, and the same budget refusal."""
+    from hopmatch.errors import BudgetExceededError
+    from hopmatch.matching.candidates import candidate_pairs
+
+    rng = np.random.default_rng(7)
+    left = rng.uniform(0, 300, (3000, 2)).astype(np.float32)
+    right = (left + rng.normal(0, 0.4, left.shape)).astype(np.float32)
+    right[:, 0] -= 20
+    contrasts = (rng.uniform(0.5, 2.0, 3000), rng.uniform(0.5, 2.0, 3000))
+    for sort in (True, False):
+        with using_threads(1):
+            want = candidate_pairs(left, right, 0, 40, 1.0, 10**7, sort=sort,
+                                   contrast_gate=(contrasts, 0.9))
+        with using_threads(threads):
+            got = candidate_pairs(left, right, 0, 40, 1.0, 10**7, sort=sort,
+                                  contrast_gate=(contrasts, 0.9))
+        assert len(want[0]) > 2 * len(left)
+        for g, w in zip(got, want):
+            np.testing.assert_array_equal(g, w)
+    total = len(candidate_pairs(left, right, 0, 40, 1.0, 10**7)[0])
+    for budget in (total, total - 1, total // 3):
+        outcome = []
+        for t in (1, threads):
+            with using_threads(t):
+                try:
+                    outcome.append(len(candidate_pairs(left, right, 0, 40, 1.0, budget)[0]))
+                except BudgetExceededError:
+                    outcome.append(None)
+        assert outcome[0] == outcome[1] == (total if budget >= total else None)

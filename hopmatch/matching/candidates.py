@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._kernels import candidates as _kc
+from .._threads import map_ranges
 from ..errors import BudgetExceededError
 from .similarity import EPS
 
@@ -50,6 +51,11 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
 
     Bounds beyond :data:`BAND_LIMIT` are clamped to it (the same pairs).
 
+    The rectified search runs on contiguous ranges of the left points' visit order in up
+    to :func:`hopmatch._threads.current_threads` threads (:func:`hopmatch._threads.
+    map_ranges`): each left point's pairs come from its own search, so the pairs, their
+    order and the budget's verdict are those of one call for any thread count.
+
     ``contrast_gate=(contrasts, gate)`` (rectified search only; ``contrasts`` from
     :func:`window_contrasts`) leaves out the pairs :func:`similarity_distance` would put past
     ``gate`` on their contrasts alone (with the same ``gain_tolerance``); the budget still
@@ -65,9 +71,17 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
         else:
             (scale_l, scale_r), gate = contrast_gate
             scale_r = scale_r[index[2]]
-        ni, nk, n = _kc.band_candidates(left, left_visit_order(left), *index, *band, budget,
-                                       scale_l, np.ascontiguousarray(scale_r, np.float64),
-                                       float(gate), EPS, float(gain_tolerance))
+        visit = left_visit_order(left)
+        scale_r = np.ascontiguousarray(scale_r, np.float64)
+        # each left point's pairs from its own search, in visit order: the ranges' outputs
+        # concatenated are the one call's; their counts add up (each exact while within
+        # the budget, so the sum passes it exactly when the band's count does)
+        parts = map_ranges(lambda lo, hi: _kc.band_candidates(
+            left, visit[lo:hi], *index, *band, budget, scale_l, scale_r, float(gate), EPS,
+            float(gain_tolerance)), len(visit))
+        ni, nk, n = parts[0] if len(parts) == 1 else (
+            np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
+            sum(int(p[2]) for p in parts))
     else:
         order = np.argsort(right[:, 0], kind="stable")
         ni, nk, n = _kc.epipolar_candidates(

@@ -92,7 +92,7 @@ def _choose_csr(off_a, idx_a, off_b, idx_b, use_b):
     np.cumsum(cnt, out=off[1:])
     start = np.where(use_b, off_b[:-1] + len(idx_a), off_a[:-1])
     pos = np.repeat(start - off[:-1], cnt) + np.arange(off[-1])
-    return off, np.r_[idx_a, idx_b].astype(np.int32)[pos]
+    return off, np.concatenate((idx_a, idx_b)).astype(np.int32, copy=False)[pos]
 
 
 @dataclass(frozen=True)
@@ -139,7 +139,7 @@ def accepted_matches(keep, q, xr, yr, u, best, second, sim) -> GuidedMatches:
     acc = np.flatnonzero(keep)
     return GuidedMatches(
         query_idx=q[acc].astype(np.int32),
-        right_points=np.c_[xr[acc], yr[acc]].astype(np.float32),
+        right_points=np.stack((xr[acc], yr[acc]), axis=1).astype(np.float32),
         distances=match_distance(u[acc]).astype(np.float32), fields=u[acc],
         zncc=best[acc], second=second[acc], similarity=sim[acc])
 
@@ -339,9 +339,10 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     q, xr, best, second, sim = q[f], xr[f], best[f], second[f], sim[f]
     yr = pts_l[q, 1].astype(np.float64) - yoff[f]
     n_m = len(qi)
-    m_left = np.ascontiguousarray(np.r_[pts_l[qi], pts_l[q]], dtype=np.float32)
-    m_right = np.ascontiguousarray(np.r_[pts_r[ti], np.c_[xr, yr]], dtype=np.float32)
-    m_sim = np.r_[np.asarray(matched_similarity, dtype=np.float64), sim]
+    m_left = np.ascontiguousarray(np.concatenate((pts_l[qi], pts_l[q])), dtype=np.float32)
+    m_right = np.ascontiguousarray(np.concatenate((pts_r[ti], np.stack((xr, yr), axis=1))),
+                                   dtype=np.float32)
+    m_sim = np.concatenate((np.asarray(matched_similarity, dtype=np.float64), sim))
     qpts = np.ascontiguousarray(pts_l[q])
     off, idx = query_neighbours(qpts, m_left, np.float32(config.neighbour_width / 2),
                                 np.float32(config.neighbour_height / 2), threads=threads)
@@ -399,10 +400,11 @@ def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     def add(gm):
         nonlocal qi, ti, right, sim
         found.append(gm)
-        qi = np.r_[qi, gm.query_idx].astype(np.int32)
-        ti = np.r_[ti, len(right) + np.arange(len(gm.query_idx))].astype(np.int32)
-        right = np.r_[right, gm.right_points].astype(np.float32)
-        sim = np.r_[sim, gm.similarity]
+        qi = np.concatenate((qi, gm.query_idx)).astype(np.int32, copy=False)
+        ti = np.concatenate((ti, np.arange(len(right), len(right) + len(gm.query_idx),
+                                           dtype=np.int32)))
+        right = np.concatenate((right, gm.right_points)).astype(np.float32, copy=False)
+        sim = np.concatenate((sim, gm.similarity))
 
     def run(first, count, new_from=None):
         """Rounds ``first...`` (with ``new_from``: each searching only where the matches

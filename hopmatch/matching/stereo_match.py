@@ -226,9 +226,9 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         keywords.
     threads : int, optional
         Threads to use: the left and right detection run concurrently, and the
-        similarity of the candidate pairs, the guided pass and the refinement split their
-        points between threads (rectified pairs; with ``rectified=False`` only the
-        similarity does). None (default):
+        search of the candidate pairs along rows (the band search), their similarity, the
+        guided pass and the refinement split their points between threads (rectified
+        pairs; with ``rectified=False`` only the similarity does). None (default):
         :func:`hopmatch.getNumThreads` (every core unless :func:`hopmatch.setNumThreads`
         said otherwise, as OpenCV does). Results are bit-identical for any count; peak
         memory of the detection is that of both images at once with 2 or more.
@@ -412,16 +412,19 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
                            config, margin=config.guided_margin, threads=threads)
     t1 = time.perf_counter()
     k = 0 if gm is None else len(gm.query_idx)
-    query_idx = net.query_idx if k == 0 else np.r_[net.query_idx, gm.query_idx].astype(np.int32)
-    train_idx = (net.train_idx if k == 0 else
-                 np.r_[net.train_idx, n_right + np.arange(k)].astype(np.int32))
-    points_right = pts_r if k == 0 else np.r_[pts_r, gm.right_points].astype(np.float32)
+    query_idx = (net.query_idx if k == 0 else
+                 np.concatenate((net.query_idx, gm.query_idx)).astype(np.int32, copy=False))
+    train_idx = (net.train_idx if k == 0 else np.concatenate(
+        (net.train_idx, np.arange(n_right, n_right + k, dtype=np.int32)))
+                 .astype(np.int32, copy=False))
+    points_right = (pts_r if k == 0 else np.concatenate((pts_r, gm.right_points))
+                    .astype(np.float32, copy=False))
     responses_right = (result.responses_right if k == 0 else
-                       np.r_[result.responses_right, np.zeros(k, np.float32)])
+                       np.concatenate((result.responses_right, np.zeros(k, np.float32))))
     refinement = None
-    passes = np.r_[np.full(len(net.query_idx), PASS_NETWORK, np.uint8),
-                   np.full(k, PASS_GUIDED, np.uint8)]
-    distances = net.distances if k == 0 else np.r_[net.distances, gm.distances]
+    passes = np.full(len(net.query_idx) + k, PASS_NETWORK, np.uint8)
+    passes[len(net.query_idx):] = PASS_GUIDED
+    distances = net.distances if k == 0 else np.concatenate((net.distances, gm.distances))
     if config.refine:
         left = pts_l[query_idx]
         yr = left[:, 1].astype(np.float64) - offset.at(left)
@@ -436,7 +439,7 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
         points_right[moved, 1] = yr[refinement.ok]
         # one scale for both passes: field and peak curvature
         u = fields_of_distances(net.distances)
-        u = u if k == 0 else np.r_[u, gm.fields]
+        u = u if k == 0 else np.concatenate((u, gm.fields))
         distances = confidence_distances(u, refinement.curvature)
         if halves.HALF_CHECK:  # windows that straddle a depth edge (matching.halves)
             drop = halves.straddling(grays[0], grays[1], left, points_right[train_idx],

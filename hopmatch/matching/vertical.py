@@ -51,6 +51,18 @@ def median_offset(dy: np.ndarray) -> RowOffset:
     return RowOffset(float(np.median(dy)) if len(dy) else 0.0)
 
 
+def _median(a: np.ndarray) -> float:
+    """``np.median`` of a 1-D float64 array without NaN (the same value: the middle
+    element, or the mean ``(a + b) / 2`` of the two middle ones), without its wrappers:
+    the robust plane fit takes two per iteration."""
+    n = a.shape[0]
+    k = n // 2
+    if n % 2:
+        return np.partition(a, k)[k]
+    part = np.partition(a, (k - 1, k))
+    return (part[k - 1] + part[k]) / 2.0
+
+
 def fit_row_offset(left: np.ndarray, dy: np.ndarray, weights=None) -> RowOffset:
     """Robust plane ``dy = a + b x + c y`` through the vertical offsets of matches.
 
@@ -89,7 +101,7 @@ def fit_row_offset(left: np.ndarray, dy: np.ndarray, weights=None) -> RowOffset:
     coef = np.array([base.a, 0.0, 0.0])
     for _ in range(PLANE_ITERATIONS):
         res = dy - design @ coef
-        scale = 1.4826 * float(np.median(np.abs(res - np.median(res))))
+        scale = 1.4826 * float(_median(np.abs(res - _median(res))))
         scale = max(scale, 1e-3)
         r = res / (PLANE_TUKEY * scale)
         w = prior * np.where(np.abs(r) < 1.0, (1.0 - r * r) ** 2, 0.0)

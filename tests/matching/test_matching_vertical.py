@@ -47,6 +47,31 @@ def test_plane_recovers_an_injected_rotation_despite_outliers():
     assert plane[~bad].all() and not median[~bad].all()
 
 
+def reference_plane(left, dy):
+    """:func:`fit_row_offset` written plainly with ``np.median`` (no weights)."""
+    p, dy = np.asarray(left, np.float64), np.asarray(dy, np.float64)
+    cx, cy = (float(v) for v in np.median(p, axis=0))
+    design = np.c_[np.ones(len(dy)), p[:, 0] - cx, p[:, 1] - cy]
+    coef = np.array([float(np.median(dy)), 0.0, 0.0])
+    for _ in range(vertical.PLANE_ITERATIONS):
+        res = dy - design @ coef
+        scale = max(1.4826 * float(np.median(np.abs(res - np.median(res)))), 1e-3)
+        r = res / (vertical.PLANE_TUKEY * scale)
+        sw = np.sqrt(np.where(np.abs(r) < 1.0, (1.0 - r * r) ** 2, 0.0))
+        coef = np.linalg.lstsq(design * sw[:, None], dy * sw, rcond=None)[0]
+    return RowOffset(float(coef[0]), float(coef[1]), float(coef[2]), cx, cy)
+
+
+@pytest.mark.parametrize("n", [PLANE_MIN_MATCHES, PLANE_MIN_MATCHES + 1, 801, 2000])
+def test_plane_is_bit_identical_to_the_numpy_reference(n):
+    """The fit's own median (odd and even counts) is ``np.median``, bit for bit."""
+    rng = np.random.default_rng(n)
+    pts = np.c_[rng.uniform(0, 1200, n), rng.uniform(0, 400, n)]
+    dy = rotated_offsets(pts, 0.3, (600, 200)) + rng.normal(0, 0.2, n)
+    dy[rng.random(n) < 0.2] += 4.0
+    assert fit_row_offset(pts, dy) == reference_plane(pts, dy)
+
+
 def test_few_matches_give_the_median():
     pts = np.c_[np.arange(10.0), np.arange(10.0)]
     dy = np.linspace(-1, 1, 10) + 0.25
