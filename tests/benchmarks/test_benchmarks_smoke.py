@@ -226,6 +226,18 @@ def test_compile_times_smoke():
     )
 
 
+def test_threaded_share_smoke():
+    """The threaded share and Amdahl's bound issue 17's note quotes
+    (benchmarks/threaded_share.py), and its serial profile table."""
+    out = run_script("threaded_share.py")
+    assert_lines(
+        out,
+        r"\| total, threads=1 \| [\d.]+ \|",
+        r"Threaded share [\d.]+%; Amdahl's bound for 2 threads [\d.]+x .*",
+        r"\| function \| own ms per pair \|",
+    )
+
+
 def test_quality_smoke():
     """The table of docs/results.md, one row per method of hopmatch.compare."""
     from hopmatch.compare import METHODS
