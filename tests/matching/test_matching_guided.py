@@ -21,8 +21,15 @@ from hopmatch.matching.guided import (
     GUIDED_SEED_FIELD,
     GUIDED_SEED_MARGIN,
     GUIDED_SEED_ZNCC,
+    GUIDED_STAGES,
+    STAGE_ACCEPTED,
+    STAGE_CONTINUITY,
+    STAGE_FEW_NEIGHBOURS,
+    STAGE_LOW_ZNCC,
+    STAGE_MARGIN,
     guided_pass,
     guided_rounds,
+    guided_search,
     seed_pass,
 )
 from hopmatch.matching.params import matcher_config
@@ -290,6 +297,48 @@ def test_guided_and_refine_can_be_turned_off_and_are_off_in_the_paper_preset():
     assert paper.n_detected_right == len(paper.points_right)
     only_refine = hopmatch.match_stereo(left, right, max_disparity=12, guided=False)
     assert (only_refine.passes == PASS_NETWORK).all() and only_refine.refinement is not None
+
+
+@pytest.mark.parametrize("margin, min_field", [(0.1, 0.0), (0.2, 3.0)])
+def test_guided_search_says_where_each_point_stopped(margin, min_field):
+    """guided_search's matches are guided_pass's; it considers every unmatched left point
+    once, its accepted ones are exactly the matches, and each stage agrees with what the
+    search measured: too few neighbours in the window, a ZNCC below the minimum or a
+    margin below ``margin``, a field not above ``min_field``."""
+    pl, dl, gl, pr, dr, gr, net = _network_case()
+    config = net.config
+    qi, ti = net.query_idx[::3], net.train_idx[::3]
+    yoff = np.zeros(len(pl))
+    kw = dict(margin=margin, min_field=min_field, window=2.0)
+    found = guided_search(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config, **kw)
+    gm = guided_pass(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config, **kw)
+    for f in ("query_idx", "right_points", "fields", "zncc", "second"):
+        np.testing.assert_array_equal(getattr(found.matches, f), getattr(gm, f))
+    unmatched = np.setdiff1d(np.arange(len(pl)), qi)
+    np.testing.assert_array_equal(np.sort(found.queries), unmatched)
+    assert set(found.stage.tolist()) <= set(range(len(GUIDED_STAGES)))
+    np.testing.assert_array_equal(found.queries[found.stage == STAGE_ACCEPTED], gm.query_idx)
+    assert len(gm.query_idx) > 0
+    wide = ng.neighbours(pl[found.queries], pl[qi], 2.0 * config.neighbour_width / 2,
+                         2.0 * config.neighbour_height / 2)
+    few = found.stage == STAGE_FEW_NEIGHBOURS
+    assert all(len(wide[m]) < 3 for m in np.flatnonzero(few))
+    assert np.isnan(found.predicted[few]).all() and np.isfinite(found.predicted[~few]).all()
+    # the searched ones again, one at a time, by the reference search
+    searched = np.flatnonzero(~few)
+    for m in searched[:: max(1, len(searched) // 60)]:
+        i = found.queries[m]
+        ok, best, second, xr, sim = ng.row_search_one(
+            gl, gr, float(pl[i, 0]), float(pl[i, 1]), dl[i],
+            float(pl[i, 0]) - found.predicted[m], 0.0, GUIDED_RADIUS, 3, 1,
+            GUIDED_MIN_ZNCC, margin, config.gain_tolerance)
+        st = found.stage[m]
+        assert ok == (st in (STAGE_ACCEPTED, STAGE_CONTINUITY)), (m, st)
+        if st == STAGE_LOW_ZNCC:
+            assert best < GUIDED_MIN_ZNCC
+        if st == STAGE_MARGIN:
+            assert best >= GUIDED_MIN_ZNCC and best - second < margin
+    assert (gm.fields > min_field).all()
 
 
 def test_guided_pass_without_network_matches_finds_nothing():
