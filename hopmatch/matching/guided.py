@@ -33,6 +33,11 @@ GUIDED_RADIUS = 2.0
 GUIDED_SEARCH = 3
 #: Half-width (px) of the search back from the right position along the left row.
 GUIDED_BACK = 1
+#: The uniqueness margin of the guided rounds is over the best other *peak* of the search
+#: (past the valleys on either side of the best column), not over the best ZNCC two or
+#: more pixels away, which on smooth texture is the best peak's own shoulder (False: the
+#: latter; the seeds always use the latter).
+GUIDED_PEAK_MARGIN = False
 #: Smallest ZNCC of an accepted peak.
 GUIDED_MIN_ZNCC = 0.8
 #: Fewest matched neighbours a left point needs to be searched (the field test needs
@@ -347,7 +352,8 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     status, best, second, xr, sim = map_chunks(
         lambda qs, cs, ys: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys, float(radius),
                                          int(search), int(back), float(min_zncc),
-                                         float(margin), EPS, float(config.gain_tolerance)),
+                                         float(margin), EPS, float(config.gain_tolerance),
+                                         False, bool(GUIDED_PEAK_MARGIN)),
         (q, centre, yoff), threads, order=row_order(pts_l[q, 1]))
     ok = status == _k.FOUND
     yr = pts_l[q, 1].astype(np.float64) - yoff

@@ -11,6 +11,7 @@ import pytest
 import hopmatch
 from hopmatch._kernels import guided as _k
 from hopmatch.feature.descriptor import gradient_windows
+from hopmatch.matching import guided as guided_module
 from hopmatch.matching.guided import (
     GUIDED_BACK,
     GUIDED_GRADIENT_LIMIT,
@@ -78,23 +79,26 @@ def _search_case(seed=3, shift=7.3):
     return g_l, g_r, pts, desc
 
 
-@pytest.mark.parametrize("gain, gain_tol", [(1.0, 1.0), (0.93, 1.0), (0.93, 1.1),
-                                            (1.2, 1.1)])
-def test_row_search_matches_the_reference(gain, gain_tol):
+@pytest.mark.parametrize("gain, gain_tol, peaks", [(1.0, 1.0, False), (0.93, 1.0, False),
+                                                   (0.93, 1.1, False), (1.2, 1.1, False),
+                                                   (1.0, 1.0, True), (0.93, 1.1, True)])
+def test_row_search_matches_the_reference(gain, gain_tol, peaks):
     """Also with a right image of another gain (``gain``): the similarity then allows for
-    a gain within ``gain_tol`` (eq. 7 as the network's, 1: as written)."""
+    a gain within ``gain_tol`` (eq. 7 as the network's, 1: as written); ``peaks``: the
+    runner-up of the margin is the best other peak (``GUIDED_PEAK_MARGIN``)."""
     g_l, g_r, pts, desc = _search_case()
     g_r = (g_r * gain).astype(g_r.dtype)
     q = np.arange(len(pts), dtype=np.int64)
     centre = pts[:, 0].astype(np.float64) - 7.3 + RNG.uniform(-2.5, 2.5, len(pts))
     yoff = RNG.uniform(-0.4, 0.4, len(pts))
     status, best, second, xr, sim = _k.row_search(g_l, g_r, pts, desc, q, centre, yoff, 2.0,
-                                                  4, 1, 0.5, 0.05, 1e-6, gain_tol)
+                                                  4, 1, 0.5, 0.05, 1e-6, gain_tol, False,
+                                                  peaks)
     found = 0
     for m in range(len(pts)):
         ok, b, s2, x, si = ng.row_search_one(g_l, g_r, float(pts[m, 0]), float(pts[m, 1]),
                                              desc[m], centre[m], yoff[m], 2.0, 4, 1, 0.5,
-                                             0.05, gain_tol)
+                                             0.05, gain_tol, peaks=peaks)
         assert (status[m] == _k.FOUND) == ok, m
         assert best[m] == pytest.approx(b, abs=1e-6)
         assert second[m] == pytest.approx(s2, abs=1e-6)
@@ -212,12 +216,15 @@ def _network_case(rows=None):
                                 refine=False).network
     return pl, dl, gl, pr, dr, gr, net
 
-@pytest.mark.parametrize("step, window", [(2, 1.0), (12, 2.0)])
-def test_guided_matches_pass_every_acceptance_test(step, window):
+@pytest.mark.parametrize("step, window, peaks", [(2, 1.0, False), (12, 2.0, False),
+                                                 (12, 2.0, True)])
+def test_guided_matches_pass_every_acceptance_test(step, window, peaks, monkeypatch):
     """Each guided match passes the tests it is accepted on, recomputed by the references:
     found by the search (peak near the prediction, ZNCC and margin, back search) and a
     positive field against its matched neighbours. With ``window`` > 1 a point with fewer
-    than 3 matched neighbours in the network's window takes them from the larger one."""
+    than 3 matched neighbours in the network's window takes them from the larger one. With
+    ``peaks`` (``GUIDED_PEAK_MARGIN``) the margin is over the best other peak."""
+    monkeypatch.setattr(guided_module, "GUIDED_PEAK_MARGIN", peaks)
     left, right = _scene()
     det = hopmatch.DericheMoravecDetector()
     pl, _, dl, gl = det.detect_and_describe(left)
@@ -256,7 +263,7 @@ def test_guided_matches_pass_every_acceptance_test(step, window):
         centre = float(pl[i, 0]) - pred
         ok, best, second, xr, sim = ng.row_search_one(
             gl, gr, float(pl[i, 0]), float(pl[i, 1]), dl[i], centre, 0.0, GUIDED_RADIUS, 3,
-            1, GUIDED_MIN_ZNCC, 0.1, config.gain_tolerance)
+            1, GUIDED_MIN_ZNCC, 0.1, config.gain_tolerance, peaks=peaks)
         assert ok, m
         assert gm.right_points[m, 0] == pytest.approx(xr, abs=1e-4)
         assert best >= GUIDED_MIN_ZNCC and best - second >= 0.1
