@@ -58,12 +58,13 @@ def normalised_distance(a, b, eps=1e-6, gain_tol=1.0):
 
 
 def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer, back,
-                   min_zncc, margin, gain_tol=1.0, clip=False):
+                   min_zncc, margin, gain_tol=1.0, clip=False, peaks=False):
     """The row search of one query as ``hopmatch._kernels.guided.row_search`` documents it:
     ``(found, best, second, xr, similarity)``; ``found`` False when any test fails, and
     the values NaN when the search did not reach them. ``clip``: the columns are first
     clipped to those whose windows (and one more column) lie in the right image; the
-    caller checks the rest of the kernel's ``OUTSIDE``."""
+    caller checks the rest of the kernel's ``OUTSIDE``. ``peaks``: the runner-up is the
+    best ZNCC beyond the first rise on either side of the best column (past its valleys)."""
     s = int(round(math.sqrt(len(left_window))))
     yr = yl - y_offset
     c0 = math.floor(centre + 0.5)
@@ -76,7 +77,16 @@ def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer
     z = [zncc(left_window, window(g_r, c, yr, s)) for c in cols]
     inner_idx = range(1, len(cols) - 1)
     mb = max(inner_idx, key=lambda m: (z[m], -m))  # first best
-    second = max([z[m] for m in inner_idx if abs(m - mb) >= 2], default=-1.0)
+    if peaks:
+        lo = mb - 1
+        while lo >= 1 and z[lo] <= z[lo + 1]:
+            lo -= 1
+        hi = mb + 1
+        while hi <= len(cols) - 2 and z[hi] <= z[hi - 1]:
+            hi += 1
+        second = max([z[m] for m in inner_idx if m <= lo or m >= hi], default=-1.0)
+    else:
+        second = max([z[m] for m in inner_idx if abs(m - mb) >= 2], default=-1.0)
     best = z[mb]
     nan = float("nan")
     if abs(cols[mb] - centre) > inner or z[mb - 1] > best or z[mb + 1] > best:

@@ -187,7 +187,7 @@ def _zncc_bilinear(a, sa2, g, x, y, s):
 
 @jit
 def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer, back,
-               min_zncc, margin, eps, gain_tol=1.0, clip=False):
+               min_zncc, margin, eps, gain_tol=1.0, clip=False, peaks=False):
     """The guided search of each query (left point) along its row of the right image.
 
     For query q (left point ``i = queries[q]`` at (xl, yl)), the right row is
@@ -216,6 +216,11 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
     (``rad`` = ``s // 2``), and the search goes on over the rest when it keeps at least
     three columns (the seeds' search of the whole range: a right point beyond the image
     is no candidate); otherwise a search leaving the image is :data:`OUTSIDE`.
+
+    ``peaks``: the runner-up is the best ZNCC beyond the valleys on either side of ``c*``
+    (the columns past the first one, walking away from ``c*``, where the ZNCC rises again),
+    not the best at least two columns away: the shoulders of a broad peak are not
+    another match (the margin then separates the peak from the best other peak).
     """
     h, w = g_r.shape
     hl, wl = g_l.shape
@@ -272,9 +277,23 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
             if z[m] > z[mb]:
                 mb = m
         z2 = -1.0
-        for m in range(1, n_span - 1):
-            if abs(m - mb) >= 2 and z[m] > z2:
-                z2 = z[m]
+        if peaks:  # beyond the valleys on either side of the peak
+            j = mb - 1
+            while j >= 1 and z[j] <= z[j + 1]:
+                j -= 1
+            for m in range(1, j + 1):
+                if z[m] > z2:
+                    z2 = z[m]
+            j = mb + 1
+            while j <= n_span - 2 and z[j] <= z[j - 1]:
+                j += 1
+            for m in range(j, n_span - 1):
+                if z[m] > z2:
+                    z2 = z[m]
+        else:
+            for m in range(1, n_span - 1):
+                if abs(m - mb) >= 2 and z[m] > z2:
+                    z2 = z[m]
         best[q] = z[mb]
         second[q] = z2
         cbest = first + mb

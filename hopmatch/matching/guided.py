@@ -33,6 +33,11 @@ GUIDED_RADIUS = 2.0
 GUIDED_SEARCH = 3
 #: Half-width (px) of the search back from the right position along the left row.
 GUIDED_BACK = 1
+#: The uniqueness margin of the guided rounds is over the best other *peak* of the search
+#: (past the valleys on either side of the best column), not over the best ZNCC two or
+#: more pixels away, which on smooth texture is the best peak's own shoulder (False: the
+#: latter; the seeds always use the latter).
+GUIDED_PEAK_MARGIN = False
 #: Smallest ZNCC of an accepted peak.
 GUIDED_MIN_ZNCC = 0.8
 #: Fewest matched neighbours a left point needs to be searched (the field test needs
@@ -82,6 +87,22 @@ GUIDED_SEED_ROUNDS = 1
 #: has round 1's settings, and no larger a window than the last round), so they find the
 #: same (False: every unmatched point is searched again).
 GUIDED_SEED_NEAR = True
+
+
+#: What :func:`guided_search` says of each left point it considered, in the order of the
+#: tests (``GuidedSearch.stage`` indexes it): accepted; fewer than ``min_support`` matched
+#: neighbours (in the largest window it may take them from); a window of the search leaves
+#: the image; the left window has no contrast; the best ZNCC within ``search`` px lies
+#: more than ``radius`` px from the prediction; it lies at the end of the searched range;
+#: its ZNCC is below ``min_zncc``; it is not ahead of the best one two or more pixels away
+#: by the uniqueness margin; searching back from the right position finds another left
+#: position (the left-right check); its field is not above ``min_field`` (continuity).
+GUIDED_STAGES = ("accepted", "few neighbours", "outside image", "flat window",
+                 "off prediction", "not a peak", "low ZNCC", "uniqueness margin",
+                 "left-right check", "continuity")
+(STAGE_ACCEPTED, STAGE_FEW_NEIGHBOURS, STAGE_OUTSIDE, STAGE_FLAT, STAGE_OFF_PREDICTION,
+ STAGE_NOT_PEAK, STAGE_LOW_ZNCC, STAGE_MARGIN, STAGE_LEFT_RIGHT,
+ STAGE_CONTINUITY) = range(len(GUIDED_STAGES))
 
 
 def _choose_csr(off_a, idx_a, off_b, idx_b, use_b):
@@ -142,6 +163,42 @@ def accepted_matches(keep, q, xr, yr, u, best, second, sim) -> GuidedMatches:
         right_points=np.stack((xr[acc], yr[acc]), axis=1).astype(np.float32),
         distances=match_distance(u[acc]).astype(np.float32), fields=u[acc],
         zncc=best[acc], second=second[acc], similarity=sim[acc])
+
+
+def search_stages(status, best, min_zncc) -> np.ndarray:
+    """(Q,) int8: the :data:`GUIDED_STAGES` code of each row search's kernel status, the
+    kernel's "weak" peak split by its ZNCC ``best`` (below ``min_zncc``: low ZNCC; else the
+    uniqueness margin); a found peak is :data:`STAGE_ACCEPTED` (the field test follows)."""
+    codes = np.array([STAGE_ACCEPTED, STAGE_OUTSIDE, STAGE_FLAT, STAGE_OFF_PREDICTION,
+                      STAGE_NOT_PEAK, STAGE_LEFT_RIGHT, STAGE_MARGIN], dtype=np.int8)
+    out = codes[np.asarray(status, dtype=np.int64)]
+    out[(status == _k.WEAK) & ~(np.asarray(best) >= min_zncc)] = STAGE_LOW_ZNCC
+    return out
+
+
+@dataclass(frozen=True)
+class GuidedSearch:
+    """What :func:`guided_search` found: ``queries`` (Q,) int64, the left points it
+    considered; ``stage`` (Q,) int8, where each stopped (:data:`GUIDED_STAGES`);
+    ``matches``, the :class:`GuidedMatches` of those at :data:`STAGE_ACCEPTED`; and
+    ``predicted`` (Q,) float64, the disparity the search was centred on (NaN for the
+    points with too few neighbours)."""
+
+    queries: np.ndarray
+    stage: np.ndarray
+    matches: GuidedMatches
+    predicted: np.ndarray
+
+    @classmethod
+    def none(cls) -> GuidedSearch:
+        """A search that considered no left point."""
+        return cls(np.zeros(0, np.int64), np.zeros(0, np.int8), empty_guided(), np.zeros(0))
+
+    @classmethod
+    def of(cls, queries, stage) -> GuidedSearch:
+        """A search that accepted none of ``queries`` (stopped at ``stage``)."""
+        return cls(np.asarray(queries, np.int64), stage, empty_guided(),
+                   np.full(len(queries), np.nan))
 
 
 def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_offset,
@@ -206,6 +263,28 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
         local maximum, has ZNCC >= ``min_zncc`` and the margin, searching back finds the
         left point again, and its field is positive.
     """
+    found = guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx,
+                          y_offset, config, margin=margin, radius=radius, search=search,
+                          back=back, min_zncc=min_zncc, min_support=min_support,
+                          window=window, min_field=min_field,
+                          matched_similarity=matched_similarity, new_from=new_from,
+                          threads=threads)
+    return found.matches
+
+
+def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_offset,
+                  config, *, margin: float = 0.1, radius: float | None = None,
+                  search: int | None = None, back: int | None = None,
+                  min_zncc: float | None = None, min_support: int | None = None,
+                  window: float = 1.0, min_field: float = 0.0,
+                  matched_similarity=None, new_from: int | None = None,
+                  threads: int | None = None) -> GuidedSearch:
+    """:func:`guided_pass` with the stage at which each left point it considered stopped
+    (the arguments are :func:`guided_pass`'s): a :class:`GuidedSearch` whose ``matches``
+    are exactly what :func:`guided_pass` returns and whose ``stage`` says, for each left
+    point the network left unmatched (those near ``query_idx[new_from:]`` only, with
+    ``new_from``), which test it failed first (:data:`GUIDED_STAGES`), or
+    :data:`STAGE_ACCEPTED`."""
     radius = GUIDED_RADIUS if radius is None else radius
     search = GUIDED_SEARCH if search is None else search
     back = GUIDED_BACK if back is None else back
@@ -213,7 +292,7 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     min_support = GUIDED_MIN_SUPPORT if min_support is None else min_support
     n_left = len(pts_l)
     if len(query_idx) == 0 or n_left == 0 or desc_l.dtype == np.uint8:
-        return empty_guided()
+        return GuidedSearch.none()
     # int32, as the network's own candidate pairs: one compiled similarity kernel, not two
     qi = np.ascontiguousarray(query_idx, dtype=np.int32)
     ti = np.ascontiguousarray(train_idx, dtype=np.int32)
@@ -232,7 +311,7 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
             np.float32(max(window, 1.0) * config.neighbour_height / 2), threads=threads)
         queries = queries[np.diff(near_off) > 0]
         if len(queries) == 0:
-            return empty_guided()
+            return GuidedSearch.none()
     qpts = np.ascontiguousarray(pts_l[queries])
     off, idx = query_neighbours(qpts, m_left, np.float32(config.neighbour_width / 2),
                                 np.float32(config.neighbour_height / 2), threads=threads)
@@ -258,8 +337,9 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
         owner = np.repeat(np.arange(len(queries)), np.diff(off))
         enough &= np.bincount(owner[idx >= new_from], minlength=len(queries)) > 0
     rows = np.flatnonzero(enough)
+    stage = np.full(len(queries), STAGE_FEW_NEIGHBOURS, dtype=np.int8)
     if len(rows) == 0:
-        return empty_guided()
+        return GuidedSearch.of(queries, stage)
     disp = m_left[:, 0].astype(np.float64) - m_right[:, 0]
     pred, gx, gy = neighbour_planes(qpts, off, idx, m_left, disp, GUIDED_PLANE_INLIER,
                                     GUIDED_PLANE_MIN, threads=threads)
@@ -272,7 +352,8 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
     status, best, second, xr, sim = map_chunks(
         lambda qs, cs, ys: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys, float(radius),
                                          int(search), int(back), float(min_zncc),
-                                         float(margin), EPS, float(config.gain_tolerance)),
+                                         float(margin), EPS, float(config.gain_tolerance),
+                                         False, bool(GUIDED_PEAK_MARGIN)),
         (q, centre, yoff), threads, order=row_order(pts_l[q, 1]))
     ok = status == _k.FOUND
     yr = pts_l[q, 1].astype(np.float64) - yoff
@@ -282,8 +363,13 @@ def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_
             config.slope, config.similarity_weight, config.input_bias, gxq, gyq),),
         (np.ascontiguousarray(pts_l[q]), np.where(ok, xr, np.nan), yr, sim, rows, gx, gy),
         threads)[0]
-    return accepted_matches(ok & (np.nan_to_num(u, nan=-np.inf) > min_field), q, xr, yr, u,
-                            best, second, sim)
+    keep = ok & (np.nan_to_num(u, nan=-np.inf) > min_field)
+    stage[rows] = search_stages(status, best, min_zncc)
+    stage[rows[ok & ~keep]] = STAGE_CONTINUITY
+    predicted = np.full(len(queries), np.nan)
+    predicted[rows] = pred
+    return GuidedSearch(queries.astype(np.int64), stage,
+                        accepted_matches(keep, q, xr, yr, u, best, second, sim), predicted)
 
 
 def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, config,

@@ -377,6 +377,18 @@ def test_wrong_matches_smoke():
                         r"correct", lines[2]), lines[2]
 
 
+def test_recall_losses_smoke():
+    """docs/parameters.md quotes both tables' headers and pooled rows (issue 21's losses)."""
+    out = run_script("recall_losses.py")
+    lines = out.splitlines()
+    assert lines[1] == ("scene | with gt | SGBM correct | hopmatch correct | lost | wrong | "
+                        "no right kp | no candidate | net said no | sec. 4 | half-win net | "
+                        "half-win guided")
+    assert re.fullmatch(r"pooled( \| \d+){11}", lines[3]), lines[3]
+    assert lines[6].startswith("scene | never matched | few neighbours | ")
+    assert re.fullmatch(r"pooled( \| \d+){14}", lines[8]), lines[8]
+
+
 def test_kernel_ab_smoke():
     """The kernel rows and the two-thread bound issue 17's speed work quotes
     (benchmarks/kernel_ab.py), with and without another checkout (this one, so the

@@ -12,6 +12,7 @@ from synthetic_pairs import texture
 import hopmatch
 from hopmatch._kernels import guided as _k
 from hopmatch.feature.descriptor import gradient_windows
+from hopmatch.matching import guided as guided_module
 from hopmatch.matching.guided import (
     GUIDED_BACK,
     GUIDED_GRADIENT_LIMIT,
@@ -22,8 +23,15 @@ from hopmatch.matching.guided import (
     GUIDED_SEED_FIELD,
     GUIDED_SEED_MARGIN,
     GUIDED_SEED_ZNCC,
+    GUIDED_STAGES,
+    STAGE_ACCEPTED,
+    STAGE_CONTINUITY,
+    STAGE_FEW_NEIGHBOURS,
+    STAGE_LOW_ZNCC,
+    STAGE_MARGIN,
     guided_pass,
     guided_rounds,
+    guided_search,
     seed_pass,
 )
 from hopmatch.matching.params import matcher_config
@@ -65,23 +73,26 @@ def _search_case(seed=3, shift=7.3):
     return g_l, g_r, pts, desc
 
 
-@pytest.mark.parametrize("gain, gain_tol", [(1.0, 1.0), (0.93, 1.0), (0.93, 1.1),
-                                            (1.2, 1.1)])
-def test_row_search_matches_the_reference(gain, gain_tol):
+@pytest.mark.parametrize("gain, gain_tol, peaks", [(1.0, 1.0, False), (0.93, 1.0, False),
+                                                   (0.93, 1.1, False), (1.2, 1.1, False),
+                                                   (1.0, 1.0, True), (0.93, 1.1, True)])
+def test_row_search_matches_the_reference(gain, gain_tol, peaks):
     """Also with a right image of another gain (``gain``): the similarity then allows for
-    a gain within ``gain_tol`` (eq. 7 as the network's, 1: as written)."""
+    a gain within ``gain_tol`` (eq. 7 as the network's, 1: as written); ``peaks``: the
+    runner-up of the margin is the best other peak (``GUIDED_PEAK_MARGIN``)."""
     g_l, g_r, pts, desc = _search_case()
     g_r = (g_r * gain).astype(g_r.dtype)
     q = np.arange(len(pts), dtype=np.int64)
     centre = pts[:, 0].astype(np.float64) - 7.3 + RNG.uniform(-2.5, 2.5, len(pts))
     yoff = RNG.uniform(-0.4, 0.4, len(pts))
     status, best, second, xr, sim = _k.row_search(g_l, g_r, pts, desc, q, centre, yoff, 2.0,
-                                                  4, 1, 0.5, 0.05, 1e-6, gain_tol)
+                                                  4, 1, 0.5, 0.05, 1e-6, gain_tol, False,
+                                                  peaks)
     found = 0
     for m in range(len(pts)):
         ok, b, s2, x, si = ng.row_search_one(g_l, g_r, float(pts[m, 0]), float(pts[m, 1]),
                                              desc[m], centre[m], yoff[m], 2.0, 4, 1, 0.5,
-                                             0.05, gain_tol)
+                                             0.05, gain_tol, peaks=peaks)
         assert (status[m] == _k.FOUND) == ok, m
         assert best[m] == pytest.approx(b, abs=1e-6)
         assert second[m] == pytest.approx(s2, abs=1e-6)
@@ -200,12 +211,15 @@ def _network_case(rows=None):
     return pl, dl, gl, pr, dr, gr, net
 
 
-@pytest.mark.parametrize("step, window", [(2, 1.0), (12, 2.0)])
-def test_guided_matches_pass_every_acceptance_test(step, window):
+@pytest.mark.parametrize("step, window, peaks", [(2, 1.0, False), (12, 2.0, False),
+                                                 (12, 2.0, True)])
+def test_guided_matches_pass_every_acceptance_test(step, window, peaks, monkeypatch):
     """Each guided match passes the tests it is accepted on, recomputed by the references:
     found by the search (peak near the prediction, ZNCC and margin, back search) and a
     positive field against its matched neighbours. With ``window`` > 1 a point with fewer
-    than 3 matched neighbours in the network's window takes them from the larger one."""
+    than 3 matched neighbours in the network's window takes them from the larger one. With
+    ``peaks`` (``GUIDED_PEAK_MARGIN``) the margin is over the best other peak."""
+    monkeypatch.setattr(guided_module, "GUIDED_PEAK_MARGIN", peaks)
     left, right = _scene()
     det = hopmatch.DericheMoravecDetector()
     pl, _, dl, gl = det.detect_and_describe(left)
@@ -244,7 +258,7 @@ def test_guided_matches_pass_every_acceptance_test(step, window):
         centre = float(pl[i, 0]) - pred
         ok, best, second, xr, sim = ng.row_search_one(
             gl, gr, float(pl[i, 0]), float(pl[i, 1]), dl[i], centre, 0.0, GUIDED_RADIUS, 3,
-            1, GUIDED_MIN_ZNCC, 0.1, config.gain_tolerance)
+            1, GUIDED_MIN_ZNCC, 0.1, config.gain_tolerance, peaks=peaks)
         assert ok, m
         assert gm.right_points[m, 0] == pytest.approx(xr, abs=1e-4)
         assert best >= GUIDED_MIN_ZNCC and best - second >= 0.1
@@ -285,6 +299,48 @@ def test_guided_and_refine_can_be_turned_off_and_are_off_in_the_paper_preset():
     assert paper.n_detected_right == len(paper.points_right)
     only_refine = hopmatch.match_stereo(left, right, max_disparity=12, guided=False)
     assert (only_refine.passes == PASS_NETWORK).all() and only_refine.refinement is not None
+
+
+@pytest.mark.parametrize("margin, min_field", [(0.1, 0.0), (0.2, 3.0)])
+def test_guided_search_says_where_each_point_stopped(margin, min_field):
+    """guided_search's matches are guided_pass's; it considers every unmatched left point
+    once, its accepted ones are exactly the matches, and each stage agrees with what the
+    search measured: too few neighbours in the window, a ZNCC below the minimum or a
+    margin below ``margin``, a field not above ``min_field``."""
+    pl, dl, gl, pr, dr, gr, net = _network_case()
+    config = net.config
+    qi, ti = net.query_idx[::3], net.train_idx[::3]
+    yoff = np.zeros(len(pl))
+    kw = dict(margin=margin, min_field=min_field, window=2.0)
+    found = guided_search(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config, **kw)
+    gm = guided_pass(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config, **kw)
+    for f in ("query_idx", "right_points", "fields", "zncc", "second"):
+        np.testing.assert_array_equal(getattr(found.matches, f), getattr(gm, f))
+    unmatched = np.setdiff1d(np.arange(len(pl)), qi)
+    np.testing.assert_array_equal(np.sort(found.queries), unmatched)
+    assert set(found.stage.tolist()) <= set(range(len(GUIDED_STAGES)))
+    np.testing.assert_array_equal(found.queries[found.stage == STAGE_ACCEPTED], gm.query_idx)
+    assert len(gm.query_idx) > 0
+    wide = ng.neighbours(pl[found.queries], pl[qi], 2.0 * config.neighbour_width / 2,
+                         2.0 * config.neighbour_height / 2)
+    few = found.stage == STAGE_FEW_NEIGHBOURS
+    assert all(len(wide[m]) < 3 for m in np.flatnonzero(few))
+    assert np.isnan(found.predicted[few]).all() and np.isfinite(found.predicted[~few]).all()
+    # the searched ones again, one at a time, by the reference search
+    searched = np.flatnonzero(~few)
+    for m in searched[:: max(1, len(searched) // 60)]:
+        i = found.queries[m]
+        ok, best, second, xr, sim = ng.row_search_one(
+            gl, gr, float(pl[i, 0]), float(pl[i, 1]), dl[i],
+            float(pl[i, 0]) - found.predicted[m], 0.0, GUIDED_RADIUS, 3, 1,
+            GUIDED_MIN_ZNCC, margin, config.gain_tolerance)
+        st = found.stage[m]
+        assert ok == (st in (STAGE_ACCEPTED, STAGE_CONTINUITY)), (m, st)
+        if st == STAGE_LOW_ZNCC:
+            assert best < GUIDED_MIN_ZNCC
+        if st == STAGE_MARGIN:
+            assert best >= GUIDED_MIN_ZNCC and best - second < margin
+    assert (gm.fields > min_field).all()
 
 
 def test_guided_pass_without_network_matches_finds_nothing():
@@ -371,8 +427,6 @@ def test_rounds_after_the_seeds_search_only_where_something_changed(monkeypatch,
     (GUIDED_SEED_NEAR): elsewhere it would find what the last round found, so every
     match is that of the round searching every unmatched point (after round 0 alone,
     whose settings differ, it searches every point)."""
-    from hopmatch.matching import guided as guided_module
-
     pl, dl, gl, pr, dr, gr, net = _network_case()
     keep = pl[net.query_idx, 0] < 80  # seeds to the right of the matches kept
     qi, ti = net.query_idx[keep][::2], net.train_idx[keep][::2]

@@ -1,0 +1,249 @@
+"""Where match_stereo loses the left keypoints that StereoSGBM gets right, stage by stage.
+
+Run: ``python benchmarks/recall_losses.py [--scenes NAME ...] [--guided JSON] [--smoke]``
+
+For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
+scene there; defaults, as ``benchmarks/passes.py`` runs them) it takes the left keypoints
+with ground truth that ``cv2.StereoSGBM`` sampled at them (``hopmatch.compare``'s ``sgbm``)
+gets right (``|d - gt| <= 1``, :func:`hopmatch.evaluate.score_matches`), and of those that
+``match_stereo`` leaves unmatched (*lost*) says where each was lost:
+
+*network* (first table): ``no right kp``: no detected right keypoint lies within 1 px (x
+and y, along the row the vertical model gives) of its true position, so the network cannot
+match it; ``no candidate``: one does, but the network has no neuron for the pair (outside
+the band or the disparity range, or the similarity gate); ``net said no``: the neuron is
+there and ends inactive; ``sec. 4``: it ends active but the uniqueness, vertical or shift
+checks after the network drop it; ``half-win net`` / ``half-win guided``: the network or
+the guided pass matched it and the half-window test (:mod:`hopmatch.matching.halves`)
+dropped it. Beside them, ``wrong``: left keypoints SGBM gets right that hopmatch matches
+wrongly (not lost, but not correct either).
+
+*guided pass* (second table), for the lost points no pass matched: the first test of
+:func:`hopmatch.matching.guided.guided_search` that stops each, run once more on every
+match found (network and guided, before the refinement) with the loosest settings any
+round has (round 0's margin and field, the last round's window): ``few neighbours``,
+``outside image``, ``flat window``, ``off prediction`` (split by whether the prediction
+was within 1 px of the truth: ``off pred (pred ok)`` means the ZNCC peaks elsewhere
+although the search was centred right), ``not a peak``, ``low ZNCC``, ``uniqueness
+margin``, ``left-right check``, ``continuity``; and ``later rounds``: points that pass
+those loosest settings but not the later rounds' (margin ``GUIDED_LATER_MARGIN``, field
+``GUIDED_LATER_FIELD``), each counted again under the later settings' stage in
+brackets... kept simple: ``later: margin`` and ``later: field``, or ``later: accepted``
+(the rounds stopped before reaching it).
+
+``--guided`` sets module constants of :mod:`hopmatch.matching.guided` first, as in
+``passes.py``. ``--smoke``: motorcycle's centre crop only (figures mean nothing).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import add_smoke_option, single_thread, smoke_crop  # noqa: E402
+
+from hopmatch import datasets  # noqa: E402
+from hopmatch.compare import METHODS  # noqa: E402
+from hopmatch.evaluate import correct_matches, score_matches  # noqa: E402
+from hopmatch.feature.detector import DericheMoravecDetector  # noqa: E402
+from hopmatch.matching import guided  # noqa: E402
+from hopmatch.matching.params import matcher_config  # noqa: E402
+from hopmatch.matching.similarity import similarity_distance  # noqa: E402
+from hopmatch.matching.stereo_match import PASS_NETWORK, match_detected  # noqa: E402
+
+NETWORK_COLUMNS = ("no right kp", "no candidate", "net said no", "sec. 4", "half-win net",
+                   "half-win guided")
+GUIDED_COLUMNS = (("few neighbours", "outside image", "flat window")
+                  + ("off pred (pred wrong)", "off pred (pred ok)")
+                  + ("not a peak", "low ZNCC", "uniqueness margin", "left-right check",
+                     "continuity", "later: margin", "later: field", "later: accepted"))
+
+
+def gt_at(points, disparity):
+    """Ground truth at the nearest pixel of each point (NaN outside or unknown), as
+    :func:`hopmatch.evaluate.score_matches` reads it."""
+    h, w = disparity.shape
+    x = np.floor(points[:, 0].astype(np.float64) + 0.5).astype(np.intp)
+    y = np.floor(points[:, 1].astype(np.float64) + 0.5).astype(np.intp)
+    out = np.full(len(points), np.nan)
+    ok = (x >= 0) & (y >= 0) & (x < w) & (y < h)
+    out[ok] = disparity[y[ok], x[ok]]
+    out[~np.isfinite(out)] = np.nan
+    return out
+
+
+def correct_of(left, right, disparity):
+    """(M,) bool: which matches are correct at 1 px (False where unscored)."""
+    sc = score_matches(left, right, disparity, thresholds=(1.0,))
+    ok, known = correct_matches(sc, left, right, 1.0)
+    return ok & known
+
+
+def index_of(points, query):
+    """Row of ``points`` with exactly each (x, y) of ``query`` (-1 where none)."""
+    key = {(float(x), float(y)): i for i, (x, y) in enumerate(points)}
+    return np.array([key.get((float(x), float(y)), -1) for x, y in query], dtype=np.int64)
+
+
+def detect(image):
+    return DericheMoravecDetector().detect_and_describe(image, keep_gray=True)
+
+
+def scene_losses(scene):
+    """``(counts of NETWORK_COLUMNS, counts of GUIDED_COLUMNS, lost, wrong, sgbm correct,
+    hopmatch correct, keypoints with ground truth, seconds)`` of one pair."""
+    t0 = time.perf_counter()
+    found_l, found_r = detect(scene.left), detect(scene.right)
+    size = float(DericheMoravecDetector().getWindowSize())
+    full = match_detected(found_l, found_r, matcher_config({}, "recall_losses"),
+                          keypoint_size=size)
+    raw = match_detected(found_l, found_r, matcher_config({"refine": False}, "recall_losses"),
+                         keypoint_size=size)
+    pts_l, _, desc_l, g_l, _ = found_l
+    pts_r, _, desc_r, g_r, _ = found_r
+    n_l = len(pts_l)
+    disp = scene.disparity
+    gt = gt_at(pts_l, disp)
+
+    # SGBM at the same left keypoints
+    sg = METHODS["sgbm"](scene)
+    sgbm_ok = np.zeros(n_l, dtype=bool)
+    if len(sg.left_pts):
+        rows = index_of(pts_l, sg.left_pts)
+        ok = correct_of(sg.left_pts, sg.right_pts, disp) & (rows >= 0)
+        sgbm_ok[rows[ok]] = True
+
+    def matched_correct(res):
+        m = np.zeros(n_l, dtype=bool)
+        c = np.zeros(n_l, dtype=bool)
+        m[res.query_idx] = True
+        c[res.query_idx] = correct_of(res.matched_left, res.matched_right, disp)
+        return m, c
+
+    m_full, c_full = matched_correct(full)
+    m_raw, _ = matched_correct(raw)
+    wrong = sgbm_ok & m_full & ~c_full
+    lost = sgbm_ok & ~m_full
+    net = raw.network
+    on_net = np.zeros(n_l, dtype=bool)
+    on_net[net.query_idx] = True
+    half_net = lost & m_raw & on_net
+    half_guided = lost & m_raw & ~on_net
+    never = lost & ~m_raw
+
+    # the network: is there a right keypoint at the true position, a neuron, an active one?
+    offset = raw.row_offset.at(pts_l) if raw.row_offset is not None else np.zeros(n_l)
+    true_x = pts_l[:, 0] - gt
+    true_y = pts_l[:, 1] - offset
+    order = np.argsort(pts_r[:, 1], kind="stable")
+    ys = pts_r[order, 1]
+    near_kp = np.zeros(n_l, dtype=bool)
+    for i in np.flatnonzero(never):
+        lo, hi = np.searchsorted(ys, [true_y[i] - 1.0, true_y[i] + 1.0 + 1e-6])
+        cand = order[lo:hi]
+        near_kp[i] = bool(np.any(np.abs(pts_r[cand, 0] - true_x[i]) <= 1.0))
+    ni, nk = net.neuron_left.astype(np.int64), net.neuron_right.astype(np.int64)
+    good = (np.abs(pts_r[nk, 0] - true_x[ni]) <= 1.0) & (np.abs(pts_r[nk, 1] - true_y[ni]) <= 1.0)
+    has_neuron = np.bincount(ni[good], minlength=n_l) > 0
+    has_active = np.bincount(ni[good & net.state], minlength=n_l) > 0
+    no_kp = never & ~near_kp & ~has_neuron
+    no_cand = never & ~no_kp & ~has_neuron
+    said_no = never & has_neuron & ~has_active
+    sec4 = never & has_active
+    net_counts = [int(a.sum()) for a in (no_kp, no_cand, said_no, sec4, half_net, half_guided)]
+
+    # the guided pass: what stops each never-matched point now, with every match as support
+    config = net.config
+    gm = raw.guided if raw.guided is not None else guided.empty_guided()
+    qi, ti = raw.query_idx, raw.train_idx
+    n_net = int(np.sum(raw.passes == PASS_NETWORK))
+    msim = np.r_[similarity_distance(desc_l, desc_r, qi[:n_net].astype(np.int32),
+                                     ti[:n_net].astype(np.int32),
+                                     gain_tolerance=config.gain_tolerance), gm.similarity]
+    window = (1.0 + guided.GUIDED_GROWTH) ** (max(int(guided.GUIDED_ROUNDS), 1) - 1)
+
+    def stages(margin, min_field):
+        s = guided.guided_search(pts_l, raw.points_right, desc_l, desc_r, g_l, g_r, qi, ti,
+                                 offset, config, margin=margin, window=window,
+                                 min_field=min_field, matched_similarity=msim)
+        st = np.full(n_l, -1, dtype=np.int64)
+        st[s.queries] = s.stage
+        pred = np.full(n_l, np.nan)
+        pred[s.queries] = s.predicted
+        return st, pred
+
+    loose, pred = stages(config.guided_margin, 0.0)
+    strict, _ = stages(max(config.guided_margin, guided.GUIDED_LATER_MARGIN),
+                       guided.GUIDED_LATER_FIELD)
+    pred_ok = np.abs(pred - gt) <= 1.0
+    g_counts = []
+    for name in GUIDED_COLUMNS:
+        if name.startswith("off pred"):
+            sel = loose == guided.STAGE_OFF_PREDICTION
+            sel &= pred_ok if name.endswith("(pred ok)") else ~pred_ok
+        elif name.startswith("later: "):
+            sel = loose == guided.STAGE_ACCEPTED
+            sel &= strict == {"margin": guided.STAGE_MARGIN, "field": guided.STAGE_CONTINUITY,
+                              "accepted": guided.STAGE_ACCEPTED}[name[7:]]
+        else:
+            sel = loose == guided.GUIDED_STAGES.index(name)
+        g_counts.append(int((never & sel).sum()))
+    return (net_counts, g_counts, int(lost.sum()), int(wrong.sum()), int(sgbm_ok.sum()),
+            int(c_full.sum()), int(np.isfinite(gt).sum()), time.perf_counter() - t0)
+
+
+def print_row(label, cells):
+    print(f"{label} | " + " | ".join(str(c) for c in cells), flush=True)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", nargs="*", help="scene names (default: all available)")
+    ap.add_argument("--guided", default="{}",
+                    help="constants of hopmatch.matching.guided to set (JSON object)")
+    args = add_smoke_option(ap).parse_args(argv)
+    single_thread()
+    for name, value in json.loads(args.guided).items():
+        if not (name.startswith("GUIDED_") and hasattr(guided, name)):
+            raise SystemExit(f"--guided: hopmatch.matching.guided has no constant {name!r}")
+        setattr(guided, name, value)
+    names = ["motorcycle"] if args.smoke else (args.scenes or datasets.list_scenes())
+    rows = []
+    for n in names:
+        scene = datasets.load(n)
+        if args.smoke:
+            scene = dataclasses.replace(scene, left=smoke_crop(scene.left),
+                                        right=smoke_crop(scene.right),
+                                        disparity=smoke_crop(scene.disparity))
+        rows.append((n, scene_losses(scene)))
+    print("## network: where the lost points (SGBM right, hopmatch unmatched) were lost")
+    print("scene | with gt | SGBM correct | hopmatch correct | lost | wrong | "
+          + " | ".join(NETWORK_COLUMNS))
+    tot = np.zeros(5 + len(NETWORK_COLUMNS), dtype=np.int64)
+    for n, (nc, _, lost, wrong, sg, hc, known, _) in rows:
+        cells = [known, sg, hc, lost, wrong, *nc]
+        tot += cells
+        print_row(n, cells)
+    print_row("pooled", tot.tolist())
+    print()
+    print("## guided pass: the first test that stops the lost points no pass matched")
+    print("scene | never matched | " + " | ".join(GUIDED_COLUMNS))
+    tot = np.zeros(1 + len(GUIDED_COLUMNS), dtype=np.int64)
+    for n, (nc, gc, *_) in rows:
+        cells = [sum(nc[:4]), *gc]
+        tot += cells
+        print_row(n, cells)
+    print_row("pooled", tot.tolist())
+    print(f"\n{sum(r[1][-1] for r in rows):.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
