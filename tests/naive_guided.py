@@ -58,13 +58,14 @@ def normalised_distance(a, b, eps=1e-6, gain_tol=1.0):
 
 
 def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer, back,
-                   min_zncc, margin, gain_tol=1.0, clip=False, peaks=False):
+                   min_zncc, margin, gain_tol=1.0, clip=False, peaks=False, shoulder=2):
     """The row search of one query as ``hopmatch._kernels.guided.row_search`` documents it:
     ``(found, best, second, xr, similarity)``; ``found`` False when any test fails, and
     the values NaN when the search did not reach them. ``clip``: the columns are first
     clipped to those whose windows (and one more column) lie in the right image; the
     caller checks the rest of the kernel's ``OUTSIDE``. ``peaks``: the runner-up is the
-    best ZNCC beyond the first rise on either side of the best column (past its valleys)."""
+    best ZNCC beyond the first rise on either side of the best column (past its valleys);
+    else the best ZNCC at least ``shoulder`` columns from it."""
     s = int(round(math.sqrt(len(left_window))))
     yr = yl - y_offset
     c0 = math.floor(centre + 0.5)
@@ -86,7 +87,7 @@ def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer
             hi += 1
         second = max([z[m] for m in inner_idx if m <= lo or m >= hi], default=-1.0)
     else:
-        second = max([z[m] for m in inner_idx if abs(m - mb) >= 2], default=-1.0)
+        second = max([z[m] for m in inner_idx if abs(m - mb) >= shoulder], default=-1.0)
     best = z[mb]
     nan = float("nan")
     if abs(cols[mb] - centre) > inner or z[mb - 1] > best or z[mb + 1] > best:

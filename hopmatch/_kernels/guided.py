@@ -187,7 +187,7 @@ def _zncc_bilinear(a, sa2, g, x, y, s):
 
 @jit
 def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer, back,
-               min_zncc, margin, eps, gain_tol=1.0, clip=False, peaks=False):
+               min_zncc, margin, eps, gain_tol=1.0, clip=False, peaks=False, shoulder=2):
     """The guided search of each query (left point) along its row of the right image.
 
     For query q (left point ``i = queries[q]`` at (xl, yl)), the right row is
@@ -197,14 +197,14 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
     ``|c - round(centre)| <= outer`` (rows lerped at yr, columns exact), scored by ZNCC.
     Let ``c*`` be the best of them: the match is *found* when ``|c* - centre| <= inner``,
     ``c*`` is a local maximum (one more column is scored at each end for that), its ZNCC
-    is at least ``min_zncc`` and exceeds by ``margin`` the best one at least two columns
-    from it (uniqueness), and searching back (the right window at the refined position
+    is at least ``min_zncc`` and exceeds by ``margin`` the best one at least ``shoulder``
+    columns from it (uniqueness), and searching back (the right window at the refined position
     against the left windows at ``xl + t``, ``0 < |t| <= back``) finds none better than
     the left window itself. The refined position is ``c* + delta``, delta the vertex of
     the parabola through the ZNCC at ``c* - 1, c*, c* + 1`` (clamped to +-0.5).
 
     Returns ``(status, best, second, xr, similarity)`` per query: the status code
-    (:data:`FOUND`...), the best ZNCC, the best ZNCC at least two columns from ``c*``,
+    (:data:`FOUND`...), the best ZNCC, the best ZNCC at least ``shoulder`` columns from ``c*``,
     the refined right x, and eq. 7's normalised distance (``mean |a - g b| / (0.5 (mean
     |a| + mean |b|) + eps)``) between the left window a and the zero-mean right window b
     at (xr, yr), g the relative gain ``mean |a| / mean |b|`` clipped to ``[1 / gain_tol,
@@ -219,8 +219,10 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
 
     ``peaks``: the runner-up is the best ZNCC beyond the valleys on either side of ``c*``
     (the columns past the first one, walking away from ``c*``, where the ZNCC rises again),
-    not the best at least two columns away: the shoulders of a broad peak are not
+    not the best at least ``shoulder`` columns away: the shoulders of a broad peak are not
     another match (the margin then separates the peak from the best other peak).
+    ``shoulder``: without ``peaks``, the runner-up is the best ZNCC at least ``shoulder``
+    columns from ``c*`` (the columns nearer are the peak's own flanks).
     """
     h, w = g_r.shape
     hl, wl = g_l.shape
@@ -292,7 +294,7 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
                     z2 = z[m]
         else:
             for m in range(1, n_span - 1):
-                if abs(m - mb) >= 2 and z[m] > z2:
+                if abs(m - mb) >= shoulder and z[m] > z2:
                     z2 = z[m]
         best[q] = z[mb]
         second[q] = z2

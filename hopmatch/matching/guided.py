@@ -34,10 +34,15 @@ GUIDED_SEARCH = 3
 #: Half-width (px) of the search back from the right position along the left row.
 GUIDED_BACK = 1
 #: The uniqueness margin of the guided rounds is over the best other *peak* of the search
-#: (past the valleys on either side of the best column), not over the best ZNCC two or
-#: more pixels away, which on smooth texture is the best peak's own shoulder (False: the
-#: latter; the seeds always use the latter).
+#: (past the valleys on either side of the best column), not over the best ZNCC
+#: :data:`GUIDED_SHOULDER` or more columns away (False: the latter; the seeds always use
+#: the latter). Off: docs/parameters.md, "Where the recall goes", says why.
 GUIDED_PEAK_MARGIN = False
+#: Without :data:`GUIDED_PEAK_MARGIN`, the uniqueness margin of the guided rounds and the
+#: seeds is over the best ZNCC at least this many columns (px) from the peak: the columns
+#: nearer are the peak's own flanks (2 until 2026-12-02; docs/parameters.md, "The
+#: uniqueness margin's shoulder", measures 2, 3 and 4).
+GUIDED_SHOULDER = 3
 #: Smallest ZNCC of an accepted peak.
 GUIDED_MIN_ZNCC = 0.8
 #: Fewest matched neighbours a left point needs to be searched (the field test needs
@@ -94,7 +99,7 @@ GUIDED_SEED_NEAR = True
 #: neighbours (in the largest window it may take them from); a window of the search leaves
 #: the image; the left window has no contrast; the best ZNCC within ``search`` px lies
 #: more than ``radius`` px from the prediction; it lies at the end of the searched range;
-#: its ZNCC is below ``min_zncc``; it is not ahead of the best one two or more pixels away
+#: its ZNCC is below ``min_zncc``; it is not ahead of the runner-up (:data:`GUIDED_SHOULDER`)
 #: by the uniqueness margin; searching back from the right position finds another left
 #: position (the left-right check); its field is not above ``min_field`` (continuity).
 GUIDED_STAGES = ("accepted", "few neighbours", "outside image", "flat window",
@@ -353,7 +358,8 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
         lambda qs, cs, ys: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys, float(radius),
                                          int(search), int(back), float(min_zncc),
                                          float(margin), EPS, float(config.gain_tolerance),
-                                         False, bool(GUIDED_PEAK_MARGIN)),
+                                         False, bool(GUIDED_PEAK_MARGIN),
+                                         int(GUIDED_SHOULDER)),
         (q, centre, yoff), threads, order=row_order(pts_l[q, 1]))
     ok = status == _k.FOUND
     yr = pts_l[q, 1].astype(np.float64) - yoff
@@ -417,7 +423,8 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     status, best, second, xr, sim = map_chunks(
         lambda qs, cs, ys: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys, float(outer),
                                          outer, GUIDED_BACK, float(min_zncc), float(margin),
-                                         EPS, float(config.gain_tolerance), GUIDED_SEED_CLIP),
+                                         EPS, float(config.gain_tolerance), GUIDED_SEED_CLIP,
+                                         False, int(GUIDED_SHOULDER)),
         (q, centre, yoff), threads, order=row_order(pts_l[q, 1]))
     f = np.flatnonzero(status == _k.FOUND)
     if len(f) == 0:

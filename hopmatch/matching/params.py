@@ -99,7 +99,7 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "margin and a left-right check (hopmatch.matching.guided; result.passes == 1)")),
     Param("guided_margin", 0.1, real(0.0), doc=(
         "uniqueness margin of the guided pass: the ZNCC of the peak must exceed the best "
-        "one at least 2 px away (within +-4 px) by this much")),
+        "one at least 3 px away (guided.GUIDED_SHOULDER; within +-3 px) by this much")),
     Param("refine", True, boolean(), doc=(
         "match_stereo's sub-pixel refinement: every match's right x moved to the peak of "
         "the ZNCC of 7 x 7 grey windows along the row, by re-centred parabola fits "

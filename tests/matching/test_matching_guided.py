@@ -23,6 +23,7 @@ from hopmatch.matching.guided import (
     GUIDED_SEED_FIELD,
     GUIDED_SEED_MARGIN,
     GUIDED_SEED_ZNCC,
+    GUIDED_SHOULDER,
     GUIDED_STAGES,
     STAGE_ACCEPTED,
     STAGE_CONTINUITY,
@@ -73,13 +74,14 @@ def _search_case(seed=3, shift=7.3):
     return g_l, g_r, pts, desc
 
 
-@pytest.mark.parametrize("gain, gain_tol, peaks", [(1.0, 1.0, False), (0.93, 1.0, False),
-                                                   (0.93, 1.1, False), (1.2, 1.1, False),
-                                                   (1.0, 1.0, True), (0.93, 1.1, True)])
-def test_row_search_matches_the_reference(gain, gain_tol, peaks):
+@pytest.mark.parametrize("gain, gain_tol, peaks, shoulder", [
+    (1.0, 1.0, False, 2), (0.93, 1.0, False, 2), (0.93, 1.1, False, 2), (1.2, 1.1, False, 2),
+    (1.0, 1.0, True, 2), (0.93, 1.1, True, 2), (1.0, 1.0, False, 3), (0.93, 1.1, False, 3)])
+def test_row_search_matches_the_reference(gain, gain_tol, peaks, shoulder):
     """Also with a right image of another gain (``gain``): the similarity then allows for
     a gain within ``gain_tol`` (eq. 7 as the network's, 1: as written); ``peaks``: the
-    runner-up of the margin is the best other peak (``GUIDED_PEAK_MARGIN``)."""
+    runner-up of the margin is the best other peak (``GUIDED_PEAK_MARGIN``), else the best
+    at least ``shoulder`` columns away (``GUIDED_SHOULDER``)."""
     g_l, g_r, pts, desc = _search_case()
     g_r = (g_r * gain).astype(g_r.dtype)
     q = np.arange(len(pts), dtype=np.int64)
@@ -87,12 +89,13 @@ def test_row_search_matches_the_reference(gain, gain_tol, peaks):
     yoff = RNG.uniform(-0.4, 0.4, len(pts))
     status, best, second, xr, sim = _k.row_search(g_l, g_r, pts, desc, q, centre, yoff, 2.0,
                                                   4, 1, 0.5, 0.05, 1e-6, gain_tol, False,
-                                                  peaks)
+                                                  peaks, shoulder)
     found = 0
     for m in range(len(pts)):
         ok, b, s2, x, si = ng.row_search_one(g_l, g_r, float(pts[m, 0]), float(pts[m, 1]),
                                              desc[m], centre[m], yoff[m], 2.0, 4, 1, 0.5,
-                                             0.05, gain_tol, peaks=peaks)
+                                             0.05, gain_tol, peaks=peaks,
+                                             shoulder=shoulder)
         assert (status[m] == _k.FOUND) == ok, m
         assert best[m] == pytest.approx(b, abs=1e-6)
         assert second[m] == pytest.approx(s2, abs=1e-6)
@@ -258,7 +261,8 @@ def test_guided_matches_pass_every_acceptance_test(step, window, peaks, monkeypa
         centre = float(pl[i, 0]) - pred
         ok, best, second, xr, sim = ng.row_search_one(
             gl, gr, float(pl[i, 0]), float(pl[i, 1]), dl[i], centre, 0.0, GUIDED_RADIUS, 3,
-            1, GUIDED_MIN_ZNCC, 0.1, config.gain_tolerance, peaks=peaks)
+            1, GUIDED_MIN_ZNCC, 0.1, config.gain_tolerance, peaks=peaks,
+            shoulder=GUIDED_SHOULDER)
         assert ok, m
         assert gm.right_points[m, 0] == pytest.approx(xr, abs=1e-4)
         assert best >= GUIDED_MIN_ZNCC and best - second >= 0.1
@@ -333,7 +337,7 @@ def test_guided_search_says_where_each_point_stopped(margin, min_field):
         ok, best, second, xr, sim = ng.row_search_one(
             gl, gr, float(pl[i, 0]), float(pl[i, 1]), dl[i],
             float(pl[i, 0]) - found.predicted[m], 0.0, GUIDED_RADIUS, 3, 1,
-            GUIDED_MIN_ZNCC, margin, config.gain_tolerance)
+            GUIDED_MIN_ZNCC, margin, config.gain_tolerance, shoulder=GUIDED_SHOULDER)
         st = found.stage[m]
         assert ok == (st in (STAGE_ACCEPTED, STAGE_CONTINUITY)), (m, st)
         if st == STAGE_LOW_ZNCC:
@@ -489,7 +493,8 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test():
         ok, _, _, xr, sim = ng.row_search_one(gl, gr, x, y, dl[i], x - 0.5 * (lo + hi), 0.0,
                                               float(outer), outer, GUIDED_BACK,
                                               GUIDED_SEED_ZNCC, GUIDED_SEED_MARGIN,
-                                              config.gain_tolerance, clip=True)
+                                              config.gain_tolerance, clip=True,
+                                              shoulder=GUIDED_SHOULDER)
         if ok:
             peaks.append((i, xr, sim))
     pk = np.array([p[0] for p in peaks])
