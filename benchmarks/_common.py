@@ -14,9 +14,11 @@ import dataclasses
 import json
 import os
 import platform
+import pstats
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -163,3 +165,14 @@ def motorcycle_bgr(smoke: bool = False):
 def machine() -> str:
     return (f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
             f"Python {platform.python_version()}, OpenCV {cv2.__version__}, NumPy {np.__version__}")
+
+
+def profile_rows(profiler, pairs: int, rows: int) -> tuple[list, float]:
+    """The ``rows`` functions with the most own time under ``profiler`` (a finished
+    ``cProfile.Profile`` that ran ``pairs`` pairs): ``([(name, own seconds per pair)...],
+    total own seconds per pair)``, the name ``file.py:function`` (built-ins by name)."""
+    stats = pstats.Stats(profiler).stats
+    top = sorted(stats.items(), key=lambda kv: kv[1][2], reverse=True)[:rows]
+    total = sum(v[2] for v in stats.values()) / pairs
+    return ([(name if path == "~" else f"{Path(path).name}:{name}", own / pairs)
+             for (path, _line, name), (_, _, own, _, _) in top], total)

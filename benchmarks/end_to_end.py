@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import cProfile
-import pstats
 import sys
 from pathlib import Path
 
@@ -40,6 +39,7 @@ from _common import (  # noqa: E402
     best_times_interleaved,
     machine,
     motorcycle_bgr,
+    profile_rows,
     single_thread,
 )
 
@@ -195,16 +195,13 @@ def profile(gl, gr, pairs: int = 20, rows: int = 15) -> None:
     for _ in range(pairs):
         hopmatch.match_stereo(gl, gr)
     prof.disable()
-    stats = pstats.Stats(prof).stats
-    top = sorted(stats.items(), key=lambda kv: kv[1][2], reverse=True)[:rows]
-    total = sum(v[2] for v in stats.values()) / pairs
+    top, total = profile_rows(prof, pairs, rows)
     print(f"\n## Where hopmatch's time goes ({pairs} pairs under cProfile, "
           f"{total * 1e3:.1f} ms per pair with the profiler's overhead)\n")
     print("| function | own ms per pair | share |")
     print("|---|---:|---:|")
-    for (path, line, name), (_, _, own, _, _) in top:
-        where = name if path == "~" else f"{Path(path).name}:{name}"
-        print(f"| `{where}` | {own / pairs * 1e3:.2f} | {own / pairs / total:.0%} |")
+    for where, own in top:
+        print(f"| `{where}` | {own * 1e3:.2f} | {own / total:.0%} |")
 
 
 if __name__ == "__main__":

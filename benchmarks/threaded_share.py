@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import cProfile
-import pstats
 import sys
 import time
 from pathlib import Path
@@ -24,7 +23,7 @@ from pathlib import Path
 import cv2
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import add_smoke_option, motorcycle_bgr, single_thread  # noqa: E402
+from _common import add_smoke_option, motorcycle_bgr, profile_rows, single_thread  # noqa: E402
 
 import hopmatch  # noqa: E402
 from hopmatch import _threads  # noqa: E402
@@ -129,14 +128,12 @@ def main(argv=None) -> None:
         hopmatch.match_stereo(gl, gr, threads=1)
     prof.disable()
     regions.profiler = None
-    stats = pstats.Stats(prof).stats
-    top = sorted(stats.items(), key=lambda kv: kv[1][2], reverse=True)[:20]
+    top, _ = profile_rows(prof, pairs, 20)
     print("Serial CPU time by function (cProfile, outside the thread helpers' functions):\n")
     print("| function | own ms per pair |")
     print("|---|---:|")
-    for (path, _line, name), (_, _, own, _, _) in top:
-        where = name if path == "~" else f"{Path(path).name}:{name}"
-        print(f"| `{where}` | {own / pairs * 1e3:.2f} |")
+    for where, own in top:
+        print(f"| `{where}` | {own * 1e3:.2f} |")
 
 
 if __name__ == "__main__":
