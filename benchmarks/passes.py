@@ -22,8 +22,9 @@ the half-window test).
 
 ``--perturb`` applies a change to the right image before matching and maps the right
 points back through it before scoring: ``dy0.5`` (shifted down by 0.5 px), ``gain0.7``
-(intensities times 0.7), ``rot0.1`` (rotated 0.1 degree about the centre), ``scale0.999``,
-or any combination joined by ``+``.
+(intensities times 0.7), ``vig0.4`` (vignetting: times ``1 - 0.4 r^2``, r = 1 at the
+corners), ``gamma1.5`` (``255 (I / 255) ** 1.5``), ``rot0.1`` (rotated 0.1 degree about
+the centre), ``scale0.999``, or any combination joined by ``+``.
 
 ``--refine-radius N`` refines with that window half-side on every scene instead of the
 size rule (``hopmatch.matching.stereo_match.refine_radius``; docs/parameters.md,
@@ -94,7 +95,7 @@ def perturbation(spec: str, shape) -> np.ndarray:
             r = np.vstack([cv2.getRotationMatrix2D(((w - 1) / 2, (h - 1) / 2), angle, scale),
                            [0, 0, 1]])
             m = r @ m
-        elif not part.startswith("gain"):
+        elif not part.startswith(("gain", "vig", "gamma")):
             raise SystemExit(f"unknown perturbation {part!r}")
     return m
 
@@ -109,6 +110,17 @@ def perturb(right: np.ndarray, spec: str):
     for part in spec.split("+"):
         if part.startswith("gain"):
             out = np.clip(out.astype(np.float32) * float(part[4:]), 0, 255).astype(np.uint8)
+        elif part.startswith("vig"):  # vignetting: 1 - k r^2, r = 1 at the corners
+            h, w = out.shape[:2]
+            yy, xx = np.mgrid[:h, :w].astype(np.float32)
+            r2 = ((xx - (w - 1) / 2) ** 2 + (yy - (h - 1) / 2) ** 2) / (((w - 1) / 2) ** 2
+                                                                       + ((h - 1) / 2) ** 2)
+            fall = 1.0 - float(part[3:]) * r2
+            out = np.clip(out.astype(np.float32) * (fall if out.ndim == 2 else fall[..., None]),
+                          0, 255).astype(np.uint8)
+        elif part.startswith("gamma"):
+            out = np.clip(255.0 * (out.astype(np.float32) / 255.0) ** float(part[5:]), 0,
+                          255).astype(np.uint8)
     return out, m
 
 

@@ -30,6 +30,7 @@ from hopmatch.matching.guided import (
     STAGE_FEW_NEIGHBOURS,
     STAGE_LOW_ZNCC,
     STAGE_MARGIN,
+    STAGE_OUTSIDE,
     guided_pass,
     guided_rounds,
     guided_search,
@@ -332,8 +333,18 @@ def test_guided_search_says_where_each_point_stopped(margin, min_field):
     assert np.isnan(found.predicted[few]).all() and np.isfinite(found.predicted[~few]).all()
     # the searched ones again, one at a time, by the reference search
     searched = np.flatnonzero(~few)
+    size = int(round(np.sqrt(dl.shape[1])))
+    rad = size // 2
     for m in searched[:: max(1, len(searched) // 60)]:
         i = found.queries[m]
+        x, y = float(pl[i, 0]), float(pl[i, 1])
+        c0 = int(np.floor(x - found.predicted[m] + 0.5))
+        if (c0 - 4 - rad < 0 or c0 + 4 + rad + 1 > gr.shape[1] - 1 or np.floor(y) - rad < 0
+                or np.floor(y) - rad + size > gr.shape[0] - 1):
+            assert found.stage[m] == STAGE_OUTSIDE, m  # a window of the search leaves it
+            continue
+        if not (np.floor(x) - 1 - rad >= 0 and np.floor(x) + 1 + rad + 1 <= gl.shape[1] - 1):
+            continue  # the back search's windows would leave the image
         ok, best, second, xr, sim = ng.row_search_one(
             gl, gr, float(pl[i, 0]), float(pl[i, 1]), dl[i],
             float(pl[i, 0]) - found.predicted[m], 0.0, GUIDED_RADIUS, 3, 1,
