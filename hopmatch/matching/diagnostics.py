@@ -68,6 +68,8 @@ FEW_MATCHES_MIN_POINTS = 50
 FEW_MATCHES_FLOOR = 5
 FEW_MATCHES_FRACTION = 0.01
 FEW_MATCHES_CONTRAST = 1.5
+#: Rows (at least) of the band in which the few-matches gain test looks for look-alikes.
+FEW_MATCHES_BAND = 4.0
 
 
 def clear_look_alikes(q_pts, t_pts, qd, td, min_disparity, max_disparity, band,
@@ -290,26 +292,45 @@ def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config,
     return False
 
 
-def contrast_ratio(qd, td) -> float | None:
-    """Median window contrast (``mean |row|``, eq. 7's normaliser) of the right
-    descriptors over that of the left ones; None for binary descriptors or empty sides."""
+def contrast_ratio(qd, td, look_alikes=None) -> float | None:
+    """Window contrast (``mean |row|``, eq. 7's normaliser) of the right descriptors over
+    that of the left ones: with ``look_alikes`` (``(left indices, right indices)`` of pairs
+    that show the same point, :func:`clear_look_alikes`), the median of the pairs' own
+    ratios when there are at least :data:`RECTIFICATION_MIN_EVIDENCE` of them; else the
+    median right contrast over the median left one. The latter also measures what each
+    image shows (two views that see different amounts of a flat wall differ there in any
+    gain), the former only the gain. None for binary descriptors or empty sides."""
     if not len(qd) or not len(td):
         return None
     contrasts = window_contrasts(qd, td)
     if contrasts is None:
         return None
+    if look_alikes is not None and len(look_alikes[0]) >= RECTIFICATION_MIN_EVIDENCE:
+        s_l, s_r = contrasts[0][look_alikes[0]], contrasts[1][look_alikes[1]]
+        both = (s_l > 0) & (s_r > 0)
+        if both.sum() >= RECTIFICATION_MIN_EVIDENCE:
+            return float(np.median(s_r[both] / s_l[both]))
     left, right = (float(np.median(c)) for c in contrasts)
     if not left > 0 or not right > 0:
         return None
     return right / left
 
 
-def few_matches_cause(result, qd, td, config) -> str:
-    """The likely reason why the network ``result`` kept almost no match, in words."""
-    ratio = contrast_ratio(qd, td)
+def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None) -> str:
+    """The likely reason why the network ``result`` kept almost no match, in words. With
+    the keypoints ``q_pts``, ``t_pts`` the gain is measured on clear look-alikes within
+    the disparity range and ``max(FEW_MATCHES_BAND, 4 max_vertical)`` rows
+    (:func:`contrast_ratio`)."""
+    look = None
+    if q_pts is not None and t_pts is not None and config.max_disparity is not None:
+        look = clear_look_alikes(q_pts, t_pts, qd, td, config.min_disparity or 0.0,
+                                 config.max_disparity,
+                                 max(FEW_MATCHES_BAND, 4.0 * config.max_vertical),
+                                 RECTIFICATION_SAMPLE)
+    ratio = contrast_ratio(qd, td, look)
     if ratio is not None and not 1 / FEW_MATCHES_CONTRAST <= ratio <= FEW_MATCHES_CONTRAST:
         return (f"the right image's windows have {ratio:.3g} times the contrast of the left "
-                "image's (medians): the two images differ in gain or exposure, or in dtype "
+                "image's (median): the two images differ in gain or exposure, or in dtype "
                 "(uint8 against uint16, or floats in [0, 1]), and the similarity gate "
                 "(similarity_gate) rejects their true matches; give both images the same "
                 "scale first (e.g. convert both to uint8 with cv2.normalize)")
@@ -348,5 +369,6 @@ def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
         f" (max_disparity=None: the coarse pass found no range, so the whole range "
         f"[{config.min_disparity:g}, {config.max_disparity:g}] was searched)")
     warn(f"only {kept} matches for {len(q_pts)} left and {len(t_pts)} right keypoints"
-         f"{searched}: {few_matches_cause(result, qd, td, config)}", FewMatchesWarning)
+         f"{searched}: {few_matches_cause(result, qd, td, config, q_pts, t_pts)}",
+         FewMatchesWarning)
     return True

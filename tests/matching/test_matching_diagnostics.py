@@ -228,6 +228,26 @@ def test_few_matches_names_a_gain_mismatch():
     assert "0.302 times the contrast" in hits[0] and "gain or exposure" in hits[0]
 
 
+def test_few_matches_measures_the_gain_on_look_alikes():
+    """Two views of one gain whose right one also sees much flat texture (many weak
+    keypoints, as a wall seen by one camera only): the medians of all windows differ 4
+    times, the look-alikes' windows do not, and the warning names the true cause."""
+    from hopmatch.matching.diagnostics import contrast_ratio
+
+    left = _noise()
+    pts_l, pts_r, d_l, d_r = _features(left, np.roll(left, -6, axis=1))
+    n = 4 * len(d_r)
+    weak = np.tile(d_r, (4, 1))[:n] * 0.1  # low-contrast windows, on rows the left lacks
+    far = np.c_[np.tile(pts_r[:, 0], 4)[:n], np.full(n, 5000.0, np.float32)]
+    t_pts = np.concatenate((pts_r, far.astype(np.float32)))
+    t_d = np.concatenate((d_r, weak.astype(d_r.dtype)))
+    assert contrast_ratio(d_l, t_d) < 1 / 1.5  # the old measure: a gain mismatch
+    res, hits = _few(lambda: hopmatch.hopfield_match(pts_l, t_pts, d_l, t_d,
+                                                     max_disparity=16, input_bias=-1e300))
+    assert len(hits) == 1 and "kept no neuron active" in hits[0], hits
+    assert "gain" not in hits[0]
+
+
 def test_few_matches_other_causes():
     left = _noise()
     pts_l, pts_r, d_l, d_r = _features(left, np.roll(left, -6, axis=1))
