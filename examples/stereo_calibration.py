@@ -134,10 +134,15 @@ def calibrate(folder):
             used.append(i)
     if len(used) < 3:
         raise FileNotFoundError(f"the chessboard was found in only {len(used)} pairs in {folder}")
-    _, k1, d1, _, _ = cv2.calibrateCamera(obj, left_pts, size, None, None)
-    _, k2, d2, _, _ = cv2.calibrateCamera(obj, right_pts, size, None, None)
-    rms, k1, d1, k2, d2, r, t, _, _ = cv2.stereoCalibrate(
-        obj, left_pts, right_pts, k1, d1, k2, d2, size, flags=cv2.CALIB_FIX_INTRINSIC)
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)  # in parallel, the calibration's last digits vary from run to run
+    try:  # (and once in a while a pixel of a rectified image, and so a match)
+        _, k1, d1, _, _ = cv2.calibrateCamera(obj, left_pts, size, None, None)
+        _, k2, d2, _, _ = cv2.calibrateCamera(obj, right_pts, size, None, None)
+        rms, k1, d1, k2, d2, r, t, _, _ = cv2.stereoCalibrate(
+            obj, left_pts, right_pts, k1, d1, k2, d2, size, flags=cv2.CALIB_FIX_INTRINSIC)
+    finally:
+        cv2.setNumThreads(threads)
     return StereoCalibration(k1, d1, k2, d2, r, t, image_size=size), rms, ids, used
 
 

@@ -106,10 +106,15 @@ def calibration(folder):
             obj.append(grid)
             lp.append(corners[0])
             rp.append(corners[1])
-    _, m1, d1, _, _ = cv2.calibrateCamera(obj, lp, size, None, None)
-    _, m2, d2, _, _ = cv2.calibrateCamera(obj, rp, size, None, None)
-    rms, _, _, _, _, r, t, _, _ = cv2.stereoCalibrate(obj, lp, rp, m1, d1, m2, d2, size,
-                                                      flags=cv2.CALIB_FIX_INTRINSIC)
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)  # in parallel, the calibration's last digits vary from run to run
+    try:
+        _, m1, d1, _, _ = cv2.calibrateCamera(obj, lp, size, None, None)
+        _, m2, d2, _, _ = cv2.calibrateCamera(obj, rp, size, None, None)
+        rms, _, _, _, _, r, t, _, _ = cv2.stereoCalibrate(obj, lp, rp, m1, d1, m2, d2, size,
+                                                          flags=cv2.CALIB_FIX_INTRINSIC)
+    finally:
+        cv2.setNumThreads(threads)
     t = t.ravel()
     tx = np.array([[0, -t[2], t[1]], [t[2], 0, -t[0]], [-t[1], t[0], 0]])
     f = np.linalg.inv(m2).T @ tx @ r @ np.linalg.inv(m1)
