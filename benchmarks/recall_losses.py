@@ -1,6 +1,7 @@
 """Where match_stereo loses the left keypoints that StereoSGBM gets right, stage by stage.
 
-Run: ``python benchmarks/recall_losses.py [--scenes NAME ...] [--guided JSON] [--smoke]``
+Run: ``python benchmarks/recall_losses.py [--scenes NAME ...] [--perturb SPEC] [--guided JSON]
+[--smoke]``
 
 For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
 scene there; defaults, as ``benchmarks/passes.py`` runs them) it takes the left keypoints
@@ -32,7 +33,11 @@ brackets... kept simple: ``later: margin`` and ``later: field``, or ``later: acc
 (the rounds stopped before reaching it).
 
 ``--guided`` sets module constants of :mod:`hopmatch.matching.guided` first, as in
-``passes.py``. ``--smoke``: motorcycle's centre crop only (figures mean nothing).
+``passes.py``. ``--perturb SPEC`` changes hopmatch's right image as ``passes.py
+--perturb`` does (``vig0.4``, ``gain0.6``, ``rot0.3+dy1.5``...; SGBM still runs on the
+unperturbed pair, so the lost points are the same ones): true right positions are mapped
+into the perturbed image, matches back out of it before scoring. ``--smoke``: motorcycle's
+centre crop only (figures mean nothing).
 """
 
 from __future__ import annotations
@@ -48,6 +53,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import add_smoke_option, single_thread, smoke_crop  # noqa: E402
+from passes import perturb, unmap  # noqa: E402
 
 from hopmatch import datasets  # noqa: E402
 from hopmatch.compare import METHODS  # noqa: E402
@@ -96,11 +102,13 @@ def detect(image):
     return DericheMoravecDetector().detect_and_describe(image, keep_gray=True)
 
 
-def scene_losses(scene):
+def scene_losses(scene, spec=""):
     """``(counts of NETWORK_COLUMNS, counts of GUIDED_COLUMNS, lost, wrong, sgbm correct,
-    hopmatch correct, keypoints with ground truth, seconds)`` of one pair."""
+    hopmatch correct, keypoints with ground truth, seconds)`` of one pair, hopmatch's right
+    image perturbed by ``spec`` (``passes.perturb``)."""
     t0 = time.perf_counter()
-    found_l, found_r = detect(scene.left), detect(scene.right)
+    right, warp = perturb(scene.right, spec) if spec else (scene.right, np.eye(3))
+    found_l, found_r = detect(scene.left), detect(right)
     size = float(DericheMoravecDetector().getWindowSize())
     full = match_detected(found_l, found_r, matcher_config({}, "recall_losses"),
                           keypoint_size=size)
@@ -124,7 +132,7 @@ def scene_losses(scene):
         m = np.zeros(n_l, dtype=bool)
         c = np.zeros(n_l, dtype=bool)
         m[res.query_idx] = True
-        c[res.query_idx] = correct_of(res.matched_left, res.matched_right, disp)
+        c[res.query_idx] = correct_of(res.matched_left, unmap(res.matched_right, warp), disp)
         return m, c
 
     m_full, c_full = matched_correct(full)
@@ -140,8 +148,9 @@ def scene_losses(scene):
 
     # the network: is there a right keypoint at the true position, a neuron, an active one?
     offset = raw.row_offset.at(pts_l) if raw.row_offset is not None else np.zeros(n_l)
-    true_x = pts_l[:, 0] - gt
-    true_y = pts_l[:, 1] - offset
+    true_x, true_y = pts_l[:, 0] - gt, pts_l[:, 1] - offset
+    if not np.allclose(warp, np.eye(3)):  # a geometric perturbation: where it put them
+        true_x, true_y = (np.c_[true_x, pts_l[:, 1], np.ones(n_l)] @ warp[:2].T).T
     order = np.argsort(pts_r[:, 1], kind="stable")
     ys = pts_r[order, 1]
     near_kp = np.zeros(n_l, dtype=bool)
@@ -182,7 +191,7 @@ def scene_losses(scene):
     loose, pred = stages(config.guided_margin, 0.0)
     strict, _ = stages(max(config.guided_margin, guided.GUIDED_LATER_MARGIN),
                        guided.GUIDED_LATER_FIELD)
-    pred_ok = np.abs(pred - gt) <= 1.0
+    pred_ok = np.abs(pts_l[:, 0] - pred - true_x) <= 1.0
     g_counts = []
     for name in GUIDED_COLUMNS:
         if name.startswith("off pred"):
@@ -206,6 +215,7 @@ def print_row(label, cells):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", nargs="*", help="scene names (default: all available)")
+    ap.add_argument("--perturb", default="", help="right-image perturbation (passes.py's)")
     ap.add_argument("--guided", default="{}",
                     help="constants of hopmatch.matching.guided to set (JSON object)")
     args = add_smoke_option(ap).parse_args(argv)
@@ -222,7 +232,7 @@ def main(argv=None) -> int:
             scene = dataclasses.replace(scene, left=smoke_crop(scene.left),
                                         right=smoke_crop(scene.right),
                                         disparity=smoke_crop(scene.disparity))
-        rows.append((n, scene_losses(scene)))
+        rows.append((n, scene_losses(scene, args.perturb)))
     print("## network: where the lost points (SGBM right, hopmatch unmatched) were lost")
     print("scene | with gt | SGBM correct | hopmatch correct | lost | wrong | "
           + " | ".join(NETWORK_COLUMNS))

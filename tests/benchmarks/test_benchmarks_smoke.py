@@ -389,6 +389,19 @@ def test_recall_losses_smoke():
     assert re.fullmatch(r"pooled( \| \d+){14}", lines[8]), lines[8]
 
 
+def test_recall_losses_perturbed_maps_the_right_points_back():
+    """``--perturb dy3``: SGBM still scores the unperturbed pair (same SGBM-correct count),
+    and hopmatch's matches in the shifted right image are mapped back before scoring (not
+    mapped, every one would be 3 px off and none correct)."""
+    def pooled(*args):
+        row = run_script("recall_losses.py", *args).splitlines()[3]
+        return [int(v) for v in row.split(" | ")[1:]]
+
+    plain, shifted = pooled(), pooled("--perturb", "dy3")
+    assert shifted[1] == plain[1]
+    assert shifted[2] >= 0.5 * plain[2] > 0, (plain, shifted)
+
+
 def test_kernel_ab_smoke():
     """The kernel rows and the two-thread bound issue 17's speed work quotes
     (benchmarks/kernel_ab.py), with and without another checkout (this one, so the
