@@ -53,6 +53,10 @@ GUIDED_MIN_SUPPORT = 3
 GUIDED_PLANE_INLIER = 2.0
 #: Fewest such neighbours for a plane (fewer: the median predicts, with no gradient).
 GUIDED_PLANE_MIN = 4
+#: The prediction (and the local plane's gradient) comes from this many matched
+#: neighbours nearest the point (Euclidean, in the window it takes them from; 0: all of
+#: them). The field test still counts every neighbour in that window.
+GUIDED_PREDICT_NEAREST = 0
 #: Largest disparity gradient (px per px, each axis) the field test carries neighbours
 #: along: the disparity-gradient limit of Pollard, Mayhew and Frisby.
 GUIDED_GRADIENT_LIMIT = 1.0
@@ -149,6 +153,21 @@ class GuidedMatches:
     zncc: np.ndarray
     second: np.ndarray
     similarity: np.ndarray
+
+
+def nearest_of(points, off, idx, matched, k):
+    """The CSR neighbour lists ``(off, idx)`` of ``points`` cut to each point's ``k``
+    nearest (Euclidean distance to ``matched[idx]``; ties by index), in the order of
+    distance."""
+    cnt = np.diff(off)
+    owner = np.repeat(np.arange(len(cnt)), cnt)
+    dist = np.hypot(matched[idx, 0].astype(np.float64) - points[owner, 0],
+                    matched[idx, 1].astype(np.float64) - points[owner, 1])
+    order = np.lexsort((idx, dist, owner))
+    keep = order[np.arange(len(order)) - off[owner[order]] < k]
+    new_off = np.zeros(len(cnt) + 1, dtype=np.int64)
+    np.cumsum(np.minimum(cnt, k), out=new_off[1:])
+    return new_off, np.ascontiguousarray(idx[keep])
 
 
 def empty_guided() -> GuidedMatches:
@@ -346,7 +365,9 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     if len(rows) == 0:
         return GuidedSearch.of(queries, stage)
     disp = m_left[:, 0].astype(np.float64) - m_right[:, 0]
-    pred, gx, gy = neighbour_planes(qpts, off, idx, m_left, disp, GUIDED_PLANE_INLIER,
+    p_off, p_idx = ((off, idx) if GUIDED_PREDICT_NEAREST <= 0 else
+                    nearest_of(qpts, off, idx, m_left, int(GUIDED_PREDICT_NEAREST)))
+    pred, gx, gy = neighbour_planes(qpts, p_off, p_idx, m_left, disp, GUIDED_PLANE_INLIER,
                                     GUIDED_PLANE_MIN, threads=threads)
     pred = pred[rows]
     gx = np.clip(gx[rows], -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)

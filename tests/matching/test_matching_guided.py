@@ -34,6 +34,7 @@ from hopmatch.matching.guided import (
     guided_pass,
     guided_rounds,
     guided_search,
+    nearest_of,
     seed_pass,
 )
 from hopmatch.matching.params import matcher_config
@@ -51,6 +52,20 @@ def test_query_neighbours_match_the_reference():
     for q in range(len(queries)):
         got = idx[off[q]:off[q + 1]].tolist()
         assert len(got) == len(set(got)) and set(got) == ref[q]
+
+
+@pytest.mark.parametrize("k", [1, 3, 50])
+def test_nearest_of_keeps_each_points_k_nearest_neighbours(k):
+    queries = RNG.uniform(0, 100, (40, 2)).astype(np.float32)
+    matched = np.round(RNG.uniform(0, 100, (150, 2))).astype(np.float32)  # with ties
+    off, idx = _k.query_neighbours(queries, matched, np.float32(20), np.float32(10))
+    new_off, new_idx = nearest_of(queries, off, idx, matched, k)
+    for q in range(len(queries)):
+        mine = idx[off[q]:off[q + 1]]
+        dist = [float(np.hypot(matched[j, 0] - np.float64(queries[q, 0]),
+                               matched[j, 1] - np.float64(queries[q, 1]))) for j in mine]
+        want = [j for _, j in sorted(zip(dist, mine.tolist()))][:k]
+        assert new_idx[new_off[q]:new_off[q + 1]].tolist() == want
 
 
 def test_neighbour_medians_are_np_median():
