@@ -22,7 +22,9 @@ wrongly (not lost, but not correct either).
 *guided pass* (second table), for the lost points no pass matched: the first test of
 :func:`hopmatch.matching.guided.guided_search` that stops each, run once more on every
 match found (network and guided, before the refinement) with the loosest settings any
-round has (round 0's margin and field, the last round's window): ``few neighbours``,
+round has (round 0's margin and field, the last round's window, the grey-level fallback
+of ``match_stereo``'s defaults: a point G's search leaves weak counts at G's stage
+unless the grey levels found a peak): ``few neighbours``,
 ``outside image``, ``flat window``, ``off prediction`` (split by whether the prediction
 was within 1 px of the truth: ``off pred (pred ok)`` means the ZNCC peaks elsewhere
 although the search was centred right), ``not a peak``, ``low ZNCC``, ``uniqueness
@@ -62,7 +64,11 @@ from hopmatch.feature.detector import DericheMoravecDetector  # noqa: E402
 from hopmatch.matching import guided  # noqa: E402
 from hopmatch.matching.params import matcher_config  # noqa: E402
 from hopmatch.matching.similarity import similarity_distance  # noqa: E402
-from hopmatch.matching.stereo_match import PASS_NETWORK, match_detected  # noqa: E402
+from hopmatch.matching.stereo_match import (  # noqa: E402
+    PASS_NETWORK,
+    grey_fallback,
+    match_detected,
+)
 
 NETWORK_COLUMNS = ("no right kp", "no candidate", "net said no", "sec. 4", "half-win net",
                    "half-win guided")
@@ -114,8 +120,8 @@ def scene_losses(scene, spec=""):
                           keypoint_size=size)
     raw = match_detected(found_l, found_r, matcher_config({"refine": False}, "recall_losses"),
                          keypoint_size=size)
-    pts_l, _, desc_l, g_l, _ = found_l
-    pts_r, _, desc_r, g_r, _ = found_r
+    pts_l, _, desc_l, g_l, gray_l = found_l
+    pts_r, _, desc_r, g_r, gray_r = found_r
     n_l = len(pts_l)
     disp = scene.disparity
     gt = gt_at(pts_l, disp)
@@ -149,8 +155,8 @@ def scene_losses(scene, spec=""):
     # the network: is there a right keypoint at the true position, a neuron, an active one?
     offset = raw.row_offset.at(pts_l) if raw.row_offset is not None else np.zeros(n_l)
     true_x, true_y = pts_l[:, 0] - gt, pts_l[:, 1] - offset
-    if not np.allclose(warp, np.eye(3)):  # a geometric perturbation: where it put them
-        true_x, true_y = (np.c_[true_x, pts_l[:, 1], np.ones(n_l)] @ warp[:2].T).T
+    # where the perturbation put them (the identity when there is none)
+    true_x, true_y = (np.c_[true_x, pts_l[:, 1], np.ones(n_l)] @ warp[:2].T).T
     order = np.argsort(pts_r[:, 1], kind="stable")
     ys = pts_r[order, 1]
     near_kp = np.zeros(n_l, dtype=bool)
@@ -177,11 +183,13 @@ def scene_losses(scene, spec=""):
                                      ti[:n_net].astype(np.int32),
                                      gain_tolerance=config.gain_tolerance), gm.similarity]
     window = (1.0 + guided.GUIDED_GROWTH) ** (max(int(guided.GUIDED_ROUNDS), 1) - 1)
+    fallback = grey_fallback((gray_l, gray_r), (g_l, g_r), pts_l, desc_l.shape[1])
 
     def stages(margin, min_field):
         s = guided.guided_search(pts_l, raw.points_right, desc_l, desc_r, g_l, g_r, qi, ti,
                                  offset, config, margin=margin, window=window,
-                                 min_field=min_field, matched_similarity=msim)
+                                 min_field=min_field, matched_similarity=msim,
+                                 fallback=fallback)
         st = np.full(n_l, -1, dtype=np.int64)
         st[s.queries] = s.stage
         pred = np.full(n_l, np.nan)

@@ -42,3 +42,18 @@ def neighbour_planes(queries, offsets, idx, m_left, values, inlier, min_count,
     if len(parts) == 1:
         return parts[0]
     return tuple(np.concatenate([p[k] for p in parts]) for k in range(3))
+
+
+def nearest_of(points, off, idx, matched, k):
+    """The CSR neighbour lists ``(off, idx)`` of ``points`` cut to each point's ``k``
+    nearest (Euclidean distance to ``matched[idx]``; ties by index), in the order of
+    distance."""
+    cnt = np.diff(off)
+    owner = np.repeat(np.arange(len(cnt)), cnt)
+    dist = np.hypot(matched[idx, 0].astype(np.float64) - points[owner, 0],
+                    matched[idx, 1].astype(np.float64) - points[owner, 1])
+    order = np.lexsort((idx, dist, owner))
+    keep = order[np.arange(len(order)) - off[owner[order]] < k]
+    new_off = np.zeros(len(cnt) + 1, dtype=np.int64)
+    np.cumsum(np.minimum(cnt, k), out=new_off[1:])
+    return new_off, np.ascontiguousarray(idx[keep])

@@ -18,12 +18,14 @@ from ..errors import (
     InvalidTypeError,
     UnrectifiedPairWarning,
 )
+from ..feature.descriptor import gradient_windows
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
-from . import halves
+from ..feature.gradient import normalised_intensity
+from . import guided, halves
 from .confidence import confidence_distances, fields_of_distances
 from .diagnostics import LooksUnrectifiedError
 from .geometry import EpipolarGeometry, GeometryWarning, transform_points
-from .guided import GuidedMatches, guided_pass, guided_rounds
+from .guided import GreyFallback, GuidedMatches, guided_pass, guided_rounds
 from .matcher import HopfieldMatcher, dmatches
 from .network import NetworkResult, PairInfo, match_pair
 from .params import MatcherConfig, matcher_config
@@ -385,11 +387,13 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
     :func:`~hopmatch.matching.halves.straddling`).
 
     ``descriptors``, ``gradients`` and ``grays`` are the (left, right) windows, feature
-    images and grey images of the detection; ``image_shape`` the (H, W) of the images
-    the pair was given as, which sets the refinement window (:func:`refine_radius`;
-    default: the grey images' own). The vertical offset both steps search along
-    is the robust plane (``config.vertical_model="plane"``) or the median of ``yl - yr``
-    over the network's matches. Returns ``result`` itself when neither step is on, and
+    images and grey images of the detection (the grey images are what the refinement
+    measures, and what the guided pass falls back on: :func:`grey_fallback`);
+    ``image_shape`` the (H, W) of the images the pair was given as, which sets the
+    refinement window (:func:`refine_radius`; default: the grey images' own). The
+    vertical offset both steps search along is the robust plane
+    (``config.vertical_model="plane"``) or the median of ``yl - yr`` over the network's
+    matches. Returns ``result`` itself when neither step is on, and
     with only ``row_offset`` set when that offset varies too fast for a rectified pair
     (:meth:`~hopmatch.matching.vertical.RowOffset.is_residual`: the steps search along
     rows; rectify the pair or pass a fundamental matrix).
@@ -409,7 +413,10 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
     if config.guided:
         gm = guided_rounds(pts_l, pts_r, descriptors[0], descriptors[1], gradients[0],
                            gradients[1], net.query_idx, net.train_idx, offset.at(pts_l),
-                           config, margin=config.guided_margin, threads=threads)
+                           config, margin=config.guided_margin,
+                           fallback=grey_fallback(grays, gradients, pts_l,
+                                                  descriptors[0].shape[1]),
+                           threads=threads)
     t1 = time.perf_counter()
     k = 0 if gm is None else len(gm.query_idx)
     query_idx = (net.query_idx if k == 0 else
@@ -458,6 +465,22 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
         query_idx=query_idx, train_idx=train_idx, distances=distances.astype(np.float32),
         timings=timings, match_timings=match_timings, passes=passes,
         n_detected_right=n_right, guided=gm, refinement=refinement, row_offset=offset)
+
+
+def grey_fallback(grays, gradients, pts_l, window_values: int) -> GreyFallback | None:
+    """The guided rounds' :class:`~.guided.GreyFallback` of a pair whose (left, right)
+    grey images are ``grays``, feature images ``gradients`` and left points ``pts_l``,
+    described by windows of ``window_values`` values (a square side's square); None
+    without :data:`~.guided.GUIDED_FALLBACK`, or when the feature images are the
+    normalised grey levels themselves (``on="intensity"``: the same search again)."""
+    if not guided.GUIDED_FALLBACK:
+        return None
+    left = normalised_intensity(np.asarray(grays[0]))
+    if left.shape == np.shape(gradients[0]) and np.array_equal(left, gradients[0]):
+        return None
+    size = int(round(np.sqrt(window_values)))
+    return GreyFallback(left, normalised_intensity(np.asarray(grays[1])),
+                        gradient_windows(left, pts_l, size))
 
 
 def _without(drop, query_idx, train_idx, points_right, pts_r, n_right, passes, distances,

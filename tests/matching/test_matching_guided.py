@@ -15,6 +15,7 @@ from hopmatch.feature.descriptor import gradient_windows
 from hopmatch.matching import guided as guided_module
 from hopmatch.matching.guided import (
     GUIDED_BACK,
+    GUIDED_FALLBACK_MIN_ZNCC,
     GUIDED_GRADIENT_LIMIT,
     GUIDED_MIN_ZNCC,
     GUIDED_PLANE_INLIER,
@@ -28,18 +29,19 @@ from hopmatch.matching.guided import (
     STAGE_ACCEPTED,
     STAGE_CONTINUITY,
     STAGE_FEW_NEIGHBOURS,
+    STAGE_LEFT_RIGHT,
     STAGE_LOW_ZNCC,
     STAGE_MARGIN,
     STAGE_OUTSIDE,
     guided_pass,
     guided_rounds,
     guided_search,
-    nearest_of,
     seed_pass,
 )
+from hopmatch.matching.neighbourhood import nearest_of
 from hopmatch.matching.params import matcher_config
 from hopmatch.matching.similarity import similarity_distance
-from hopmatch.matching.stereo_match import PASS_GUIDED, PASS_NETWORK
+from hopmatch.matching.stereo_match import PASS_GUIDED, PASS_NETWORK, grey_fallback
 
 RNG = np.random.default_rng(7)
 
@@ -371,6 +373,61 @@ def test_guided_search_says_where_each_point_stopped(margin, min_field):
         if st == STAGE_MARGIN:
             assert best >= GUIDED_MIN_ZNCC and best - second < margin
     assert (gm.fields > min_field).all()
+
+
+def test_grey_fallback_searches_the_grey_levels_only_where_the_search_on_g_failed():
+    """With a GreyFallback, each left point whose search on G stopped at a low ZNCC, the
+    uniqueness margin or the left-right check has the outcome of the same search on the
+    grey images (with the fallback's smallest ZNCC) where that one found a peak (accepted,
+    or refused by the field test); every other point has G's outcome. The matches are the
+    two searches' (the same prediction and neighbours' similarity: only the images
+    differ)."""
+    left, right = _scene(noise=6.0)
+    pl, dl, gl, pr, dr, gr, net = _network_case()
+    config = net.config
+    qi, ti = net.query_idx[::3], net.train_idx[::3]
+    yoff = np.zeros(len(pl))
+    fb = grey_fallback((left, right), (gl, gr), pl, dl.shape[1])
+    size = int(round(np.sqrt(dl.shape[1])))
+    np.testing.assert_array_equal(fb.windows_left, gradient_windows(fb.left, pl, size))
+    msim = similarity_distance(dl, dr, qi, ti, gain_tolerance=config.gain_tolerance)
+    kw = dict(margin=0.1, window=2.0, matched_similarity=msim)
+    on_g = guided_search(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config, **kw)
+    on_grey = guided_search(pl, pr, fb.windows_left, dr, fb.left, fb.right, qi, ti, yoff,
+                            config, min_zncc=max(GUIDED_MIN_ZNCC, GUIDED_FALLBACK_MIN_ZNCC),
+                            **kw)
+    both = guided_search(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config, fallback=fb, **kw)
+    np.testing.assert_array_equal(both.queries, on_g.queries)
+    np.testing.assert_array_equal(on_grey.queries, on_g.queries)
+    peak = (STAGE_ACCEPTED, STAGE_CONTINUITY)
+    weak_on_g = np.isin(on_g.stage, (STAGE_LOW_ZNCC, STAGE_MARGIN, STAGE_LEFT_RIGHT))
+    assert weak_on_g.any() and (~weak_on_g & ~np.isin(on_g.stage, peak)).any()
+    from_grey = weak_on_g & np.isin(on_grey.stage, peak)
+    np.testing.assert_array_equal(both.stage, np.where(from_grey, on_grey.stage, on_g.stage))
+    added = from_grey & (on_grey.stage == STAGE_ACCEPTED)
+    assert added.sum() > 0 and (on_g.stage == STAGE_ACCEPTED).sum() > 0
+    for search, where in ((on_g, ~from_grey), (on_grey, from_grey)):
+        mine = np.isin(both.matches.query_idx, both.queries[where])
+        theirs = np.isin(search.matches.query_idx, both.queries[where])
+        for f in ("query_idx", "right_points", "fields", "zncc", "second", "similarity"):
+            np.testing.assert_array_equal(getattr(both.matches, f)[mine],
+                                          getattr(search.matches, f)[theirs])
+
+
+def test_grey_fallback_is_off_on_grey_feature_images_and_without_guided_fallback(
+        monkeypatch):
+    """No fallback where the feature images are the normalised grey levels (the detector's
+    ``on="intensity"``: the same search again), nor with GUIDED_FALLBACK off."""
+    left, right = _scene()
+    det = hopmatch.DericheMoravecDetector(on="intensity")
+    pl, _, dl, gl = det.detect_and_describe(left)
+    pr, _, dr, gr = det.detect_and_describe(right)
+    assert grey_fallback((left, right), (gl, gr), pl, dl.shape[1]) is None
+    g_l = hopmatch.DericheMoravecDetector().feature_image(left)
+    g_r = hopmatch.DericheMoravecDetector().feature_image(right)
+    assert grey_fallback((left, right), (g_l, g_r), pl, dl.shape[1]) is not None
+    monkeypatch.setattr(guided_module, "GUIDED_FALLBACK", False)
+    assert grey_fallback((left, right), (g_l, g_r), pl, dl.shape[1]) is None
 
 
 def test_guided_pass_without_network_matches_finds_nothing():
