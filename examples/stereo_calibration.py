@@ -75,7 +75,7 @@ import numpy as np
 import hopmatch
 from hopmatch.datasets import shared_data_dir
 from hopmatch.errors import InvalidArgumentError
-from hopmatch.stereo import StereoCalibration, rectify, triangulate_matches, write_ply
+from hopmatch.stereo import calibrate_from_corners, rectify, triangulate_matches, write_ply
 
 PATTERN = (9, 6)          #: inner corners per row, per column
 RMS_GOAL = 1.0            #: px, calibration RMS reprojection error
@@ -134,16 +134,10 @@ def calibrate(folder):
             used.append(i)
     if len(used) < 3:
         raise FileNotFoundError(f"the chessboard was found in only {len(used)} pairs in {folder}")
-    threads = cv2.getNumThreads()
-    cv2.setNumThreads(1)  # in parallel, the calibration's last digits vary from run to run
-    try:  # (and once in a while a pixel of a rectified image, and so a match)
-        _, k1, d1, _, _ = cv2.calibrateCamera(obj, left_pts, size, None, None)
-        _, k2, d2, _, _ = cv2.calibrateCamera(obj, right_pts, size, None, None)
-        rms, k1, d1, k2, d2, r, t, _, _ = cv2.stereoCalibrate(
-            obj, left_pts, right_pts, k1, d1, k2, d2, size, flags=cv2.CALIB_FIX_INTRINSIC)
-    finally:
-        cv2.setNumThreads(threads)
-    return StereoCalibration(k1, d1, k2, d2, r, t, image_size=size), rms, ids, used
+    # cv2.calibrateCamera per camera, then cv2.stereoCalibrate with the intrinsics fixed,
+    # single-threaded: the same calibration in every run
+    cal, rms = calibrate_from_corners(obj, left_pts, right_pts, size)
+    return cal, rms, ids, used
 
 
 def plane_fit(xyz):

@@ -57,7 +57,7 @@ import numpy as np
 import hopmatch
 from hopmatch.datasets import shared_data_dir
 from hopmatch.errors import InvalidArgumentError
-from hopmatch.stereo import epipolar_distances
+from hopmatch.stereo import calibrate_from_corners, epipolar_distances
 
 FOLDER = "opencv_stereo_calib"
 PATTERN = (9, 6)          #: inner corners of the chessboard
@@ -106,19 +106,9 @@ def calibration(folder):
             obj.append(grid)
             lp.append(corners[0])
             rp.append(corners[1])
-    threads = cv2.getNumThreads()
-    cv2.setNumThreads(1)  # in parallel, the calibration's last digits vary from run to run
-    try:
-        _, m1, d1, _, _ = cv2.calibrateCamera(obj, lp, size, None, None)
-        _, m2, d2, _, _ = cv2.calibrateCamera(obj, rp, size, None, None)
-        rms, _, _, _, _, r, t, _, _ = cv2.stereoCalibrate(obj, lp, rp, m1, d1, m2, d2, size,
-                                                          flags=cv2.CALIB_FIX_INTRINSIC)
-    finally:
-        cv2.setNumThreads(threads)
-    t = t.ravel()
-    tx = np.array([[0, -t[2], t[1]], [t[2], 0, -t[0]], [-t[1], t[0], 0]])
-    f = np.linalg.inv(m2).T @ tx @ r @ np.linalg.inv(m1)
-    return (m1, d1, m2, d2), f / np.linalg.norm(f), rms, len(obj)
+    cal, rms = calibrate_from_corners(obj, lp, rp, size)  # single-threaded: reproducible
+    f = cal.fundamental_matrix()
+    return (cal.K1, cal.D1, cal.K2, cal.D2), f, rms, len(obj)
 
 
 def drawlines(img1, img2, lines, pts1, pts2):

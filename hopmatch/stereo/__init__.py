@@ -22,8 +22,9 @@ Conventions, as in cv2:
 Import every name from here (``from hopmatch.stereo import rectify``). The modules:
 ``points`` (cv2 keypoints and matches to point arrays and back, disparities), ``depth``
 (depth, reprojection, triangulation), ``ply`` (point clouds), ``calibration``
-(:class:`StereoCalibration` and its files), ``rectification`` (calibrated pairs),
-``epipolar`` (unrectified pairs) and ``checks`` (the boundary checks they share).
+(:class:`StereoCalibration`, its files, and :func:`calibrate_from_corners`),
+``rectification`` (calibrated pairs), ``epipolar`` (unrectified pairs) and ``checks`` (the
+boundary checks they share).
 
 Examples
 --------
@@ -41,7 +42,8 @@ From a cv2 matcher's output to depth, on a rectified pair of focal 500 px and ba
 """
 
 from .calibration import CALIBRATION_KEYS as CALIBRATION_KEYS
-from .calibration import StereoCalibration
+from .calibration import MAX_CALIBRATION_CORNERS as MAX_CALIBRATION_CORNERS
+from .calibration import StereoCalibration, calibrate_from_corners
 from .depth import (
     depth_from_disparity,
     reproject_points,
@@ -61,6 +63,7 @@ from .rectification import rectify, rectify_points
 
 __all__ = [
     "StereoCalibration",
+    "calibrate_from_corners",
     "depth_from_disparity",
     "epipolar_distance_matrix",
     "epipolar_distances",

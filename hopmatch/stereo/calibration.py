@@ -9,13 +9,14 @@ A calibration holds what ``cv2.stereoCalibrate`` (K1, D1, K2, D2, R, T) and, opt
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from .._files import MAX_TEXT_BYTES, FileReadError, atomic_path, check_input_file
-from .._validate import as_image_size, as_matrix, cv2_call, describe
+from .._validate import as_array, as_image_size, as_matrix, as_points, cv2_call, describe
 from ..errors import InvalidArgumentError, InvalidTypeError
 from .checks import (
     as_alpha,
@@ -26,7 +27,8 @@ from .checks import (
     as_translation,
 )
 
-__all__ = ["CALIBRATION_KEYS", "StereoCalibration", "as_calibration"]
+__all__ = ["CALIBRATION_KEYS", "MAX_CALIBRATION_CORNERS", "StereoCalibration", "as_calibration",
+           "calibrate_from_corners"]
 
 
 #: Key spellings read by StereoCalibration.from_file, canonical name first.
@@ -313,6 +315,105 @@ def as_calibration(calibration, name: str = "calibration") -> StereoCalibration:
             f"got {describe(calibration)}"
         )
     return calibration
+
+
+#: Most corners :func:`calibrate_from_corners` takes over all views and both cameras.
+MAX_CALIBRATION_CORNERS = 1 << 22
+
+
+def calibrate_from_corners(object_points, left_points, right_points,
+                           image_size) -> tuple[StereoCalibration, float]:
+    """A stereo calibration from a calibration target's corners seen by both cameras.
+
+    Each camera's intrinsics come from ``cv2.calibrateCamera`` of its own corners; then
+    ``cv2.stereoCalibrate`` with those intrinsics fixed (``cv2.CALIB_FIX_INTRINSIC``)
+    gives R and T, as OpenCV's ``stereo_calib`` sample does. The calls run with one
+    OpenCV thread (``cv2.setNumThreads(1)``, restored after; other threads' cv2 calls
+    meanwhile run single-threaded too): in parallel their results differ in the last
+    digits from process to process, and that once in a while moves a pixel of a rectified
+    image (docs/pipelines.md). So the same corners give the same calibration in any
+    process.
+
+    Parameters
+    ----------
+    object_points : sequence of (N_v, 3) array_like
+        The target's corners in its own frame, one array per view (in the unit T is to
+        come out in; planar targets have z = 0).
+    left_points, right_points : sequence of (N_v, 2) array_like
+        The same corners in the left and right images (``cv2.findChessboardCorners``'
+        ``(N_v, 1, 2)`` arrays are accepted), one array per view.
+    image_size : (width, height)
+        Size of the calibration images.
+
+    Returns
+    -------
+    (StereoCalibration, float)
+        The calibration (with ``image_size``; no rectification yet:
+        :meth:`StereoCalibration.with_rectification`) and ``cv2.stereoCalibrate``'s RMS
+        reprojection error in pixels.
+
+    Raises
+    ------
+    InvalidTypeError, InvalidArgumentError
+        Malformed corners (the three sequences of unequal lengths, a view with fewer than
+        4 corners or unequal counts across the three, more than
+        :data:`MAX_CALIBRATION_CORNERS` in all), or corners OpenCV cannot calibrate from.
+    """
+    size = as_image_size(image_size, "image_size")
+    if size is None:
+        raise InvalidTypeError("`image_size` must be (width, height) as two integers, got None")
+    views = {}
+    for name, value in (("object_points", object_points), ("left_points", left_points),
+                        ("right_points", right_points)):
+        if isinstance(value, (str, bytes, np.ndarray)) or not isinstance(value, Sequence):
+            raise InvalidTypeError(f"`{name}` must be a sequence of arrays, one per view, "
+                                   f"got {describe(value)}")
+        views[name] = value
+    n_views = {len(v) for v in views.values()}
+    if len(n_views) != 1 or 0 in n_views:
+        raise InvalidArgumentError(
+            "`object_points`, `left_points` and `right_points` must hold one array per view, "
+            "as many views in each and at least one, got "
+            + ", ".join(f"{len(v)}" for v in views.values()) + " views")
+    total = 0
+    obj, left, right = [], [], []
+    for v, (o, lp, rp) in enumerate(zip(*views.values())):
+        o = as_array(o, f"object_points[{v}]", "an (N, 3) array of corner positions")
+        if o.ndim == 3 and o.shape[1] == 1:
+            o = o.reshape(-1, o.shape[2])
+        if o.ndim != 2 or o.shape[1] != 3:
+            raise InvalidArgumentError(
+                f"`object_points[{v}]` must have shape (N, 3), got shape {o.shape}")
+        total += 3 * len(o)
+        if total > MAX_CALIBRATION_CORNERS:
+            raise InvalidArgumentError(
+                f"the corners hold more than {MAX_CALIBRATION_CORNERS} values; calibrate "
+                "from fewer views or corners")
+        lp, rp = as_points(lp, f"left_points[{v}]"), as_points(rp, f"right_points[{v}]")
+        if not (len(o) == len(lp) == len(rp)) or len(o) < 4:
+            raise InvalidArgumentError(
+                f"view {v} must have the same number of corners, at least 4, in "
+                f"`object_points`, `left_points` and `right_points`, got {len(o)}, "
+                f"{len(lp)} and {len(rp)}")
+        obj.append(np.ascontiguousarray(o, dtype=np.float32))
+        left.append(lp.reshape(-1, 1, 2))
+        right.append(rp.reshape(-1, 1, 2))
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        _, k1, d1, _, _ = cv2_call("calibrateCamera of the left corners", cv2.calibrateCamera,
+                                   obj, left, size, None, None)
+        _, k2, d2, _, _ = cv2_call("calibrateCamera of the right corners",
+                                   cv2.calibrateCamera, obj, right, size, None, None)
+        rms, k1, d1, k2, d2, r, t, _, _ = cv2_call(
+            "stereoCalibrate", cv2.stereoCalibrate, obj, left, right, k1, d1, k2, d2, size,
+            flags=cv2.CALIB_FIX_INTRINSIC)
+    finally:
+        cv2.setNumThreads(threads)
+    if not all(np.isfinite(m).all() for m in (k1, d1, k2, d2, r, t)) or not np.isfinite(rms):
+        raise InvalidArgumentError("the corners give no finite calibration (degenerate views: "
+                                   "see that the target is seen at several poses)")
+    return StereoCalibration(k1, d1, k2, d2, r, t, image_size=size), float(rms)
 
 
 # -- reading FileStorage files ------------------------------------------------------------

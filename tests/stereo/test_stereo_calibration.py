@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 
 import cv2
 import numpy as np
@@ -173,3 +174,68 @@ class TestCalibrationFiles:
         cal = StereoCalibration.from_file(path, extrinsics=ext)
         assert cal.K1[0, 0] == pytest.approx(534.80326845051309)
         assert cal.D2.shape == (1, 5)
+
+
+def _chessboard_views(n_views=8, noise=0.0):
+    """A 9 x 6 target (unit squares, z = 0) at ``n_views`` poses in front of the rig:
+    ``(object_points, left_points, right_points)``, the corners projected by cv2's own
+    projectPoints (``noise``: px of Gaussian noise added)."""
+    rng = np.random.default_rng(3)
+    grid = np.zeros((54, 3), np.float32)
+    grid[:, :2] = np.mgrid[0:9, 0:6].T.reshape(-1, 2) * 0.025  # 2.5 cm squares, in m
+    obj, left, right = [], [], []
+    for v in range(n_views):
+        rot = cv2.Rodrigues(np.array([0.3 * np.sin(v), 0.3 * np.cos(1.7 * v), 0.1 * v]))[0]
+        shift = np.array([-0.1 + 0.02 * (v % 3), -0.06 + 0.02 * (v % 2), 0.5 + 0.04 * v])
+        xyz = grid @ rot.T + shift  # in the left camera's frame
+        left.append(project(xyz, K1) + rng.normal(0, noise, (54, 2)))
+        right.append(project(xyz, K2, R, T) + rng.normal(0, noise, (54, 2)))
+        obj.append(grid)
+    return obj, [p.astype(np.float32) for p in left], [p.astype(np.float32) for p in right]
+
+
+def test_calibrate_from_corners_recovers_the_rig_and_restores_cv2s_threads():
+    """Noise-free corners give the rig's K, R and T back, and a near-zero RMS; the same
+    corners give the same calibration bit for bit; cv2's thread count is as it was."""
+    from hopmatch.stereo import calibrate_from_corners
+
+    obj, left, right = _chessboard_views()
+    before = cv2.getNumThreads()
+    cal, rms = calibrate_from_corners(obj, left, right, SIZE)
+    assert cv2.getNumThreads() == before
+    assert isinstance(cal, StereoCalibration) and cal.image_size == SIZE
+    assert rms < 0.01
+    np.testing.assert_allclose(cal.K1, K1, atol=1.0)
+    np.testing.assert_allclose(cal.K2, K2, atol=1.0)
+    np.testing.assert_allclose(cal.R, R, atol=2e-3)
+    np.testing.assert_allclose(cal.T.ravel(), T, atol=2e-3)
+    again, rms_again = calibrate_from_corners(obj, [p.reshape(-1, 1, 2) for p in left],
+                                              right, SIZE)
+    assert rms_again == rms
+    for key in ("K1", "D1", "K2", "D2", "R", "T"):
+        np.testing.assert_array_equal(getattr(again, key), getattr(cal, key))
+
+
+@pytest.mark.parametrize("change, error, words", [
+    (lambda o, l, r, s: (o[:-1], l, r, s), InvalidArgumentError, "views"),
+    (lambda o, l, r, s: (o, [p[:-1] for p in l], r, s), InvalidArgumentError, "view 0"),
+    (lambda o, l, r, s: ([p[:3] for p in o], [p[:3] for p in l], [p[:3] for p in r], s),
+     InvalidArgumentError, "at least 4"),
+    (lambda o, l, r, s: ([p[:, :2] for p in o], l, r, s), InvalidArgumentError,
+     "object_points[0]"),
+    (lambda o, l, r, s: (o, l, r, None), InvalidTypeError, "image_size"),
+    (lambda o, l, r, s: (np.stack(o), l, r, s), InvalidTypeError, "object_points"),
+    (lambda o, l, r, s: (o, ["corners"] * len(l), r, s), InvalidTypeError, "left_points[0]"),
+    (lambda o, l, r, s: (o, [np.full((54, 2), np.nan)] * len(l), r, s), InvalidArgumentError,
+     "left_points[0]"),
+    (lambda o, l, r, s: ([np.zeros((54, 3))] * len(o), l, r, s), InvalidArgumentError,
+     "calibrate"),
+])
+def test_calibrate_from_corners_refuses_bad_corners_by_name(change, error, words):
+    from hopmatch.stereo import calibrate_from_corners
+
+    args = change(*_chessboard_views(4), SIZE)
+    before = cv2.getNumThreads()
+    with pytest.raises(error, match=re.escape(words)):
+        calibrate_from_corners(*args)
+    assert cv2.getNumThreads() == before
