@@ -183,7 +183,7 @@ def scene_losses(scene, spec=""):
                                      ti[:n_net].astype(np.int32),
                                      gain_tolerance=config.gain_tolerance), gm.similarity]
     window = (1.0 + guided.GUIDED_GROWTH) ** (max(int(guided.GUIDED_ROUNDS), 1) - 1)
-    fallback = grey_fallback((gray_l, gray_r), (g_l, g_r), pts_l, desc_l.shape[1])
+    fallback = grey_fallback((gray_l, gray_r), (g_l, g_r), desc_l.shape[1])
 
     def stages(margin, min_field):
         s = guided.guided_search(pts_l, raw.points_right, desc_l, desc_r, g_l, g_r, qi, ti,

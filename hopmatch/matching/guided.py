@@ -25,6 +25,7 @@ import numpy as np
 
 from .._kernels import guided as _k
 from .._threads import map_chunks, row_order
+from ..feature.descriptor import gradient_windows
 from .neighbourhood import nearest_of, neighbour_planes, query_neighbours
 from .similarity import EPS, match_distance, similarity_distance
 
@@ -141,21 +142,21 @@ def _choose_csr(off_a, idx_a, off_b, idx_b, use_b):
 class GreyFallback:
     """The images the guided row search falls back on where its peak on the feature image
     G is too weak (:data:`GUIDED_FALLBACK`): the pair's grey levels, normalised as G's input is
-    (:func:`~hopmatch.feature.gradient.normalised_intensity`), and the zero-mean windows
-    of the left points cut from them (eqs. 8-9 on grey levels,
-    :func:`~hopmatch.feature.descriptor.gradient_windows`).
+    (:func:`~hopmatch.feature.gradient.normalised_intensity`). The left windows of the
+    points searched again are cut from ``left`` when needed (eqs. 8-9 on grey levels,
+    :func:`~hopmatch.feature.descriptor.gradient_windows`, ``window_size`` a side).
 
     Attributes
     ----------
     left, right : (H, W) float32 ndarray
         The normalised grey images.
-    windows_left : (Nl, s * s) float32 ndarray
-        The window of every left point on ``left``, ``s`` the descriptor size.
+    window_size : int
+        Side of the windows (odd; the descriptor size of G's windows).
     """
 
     left: np.ndarray
     right: np.ndarray
-    windows_left: np.ndarray
+    window_size: int
 
 
 @dataclass(frozen=True)
@@ -406,27 +407,31 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     yoff = np.ascontiguousarray(np.asarray(y_offset, dtype=np.float64)[q])
     centre = np.ascontiguousarray(pts_l[q, 0].astype(np.float64) - pred)
 
-    def search_rows(images, qs, min_zncc=min_zncc):
-        """The row search of the queries ``q[qs]`` on ``images`` (g_l, g_r, windows)."""
-        im_l, im_r, windows = images
+    def search_rows(im_l, im_r, points, windows, which, qs, min_zncc):
+        """The row search on ``im_l``, ``im_r`` of the queries ``q[qs]``, the left point
+        ``q[k]`` being ``points[which[k]]`` with the window ``windows[which[k]]``."""
         return map_chunks(
-            lambda qq, cs, ys: _k.row_search(im_l, im_r, pts_l, windows, qq, cs, ys,
+            lambda ww, cs, ys: _k.row_search(im_l, im_r, points, windows, ww, cs, ys,
                                              float(radius), int(search), int(back),
                                              float(min_zncc), float(margin), EPS,
                                              float(config.gain_tolerance), False,
                                              bool(GUIDED_PEAK_MARGIN), int(GUIDED_SHOULDER)),
-            (np.ascontiguousarray(q[qs]), np.ascontiguousarray(centre[qs]),
+            (np.ascontiguousarray(which), np.ascontiguousarray(centre[qs]),
              np.ascontiguousarray(yoff[qs])), threads, order=row_order(pts_l[q[qs], 1]))
 
-    status, best, second, xr, sim = search_rows((g_l, g_r, desc_l), slice(None))
+    status, best, second, xr, sim = search_rows(g_l, g_r, pts_l, desc_l, q, slice(None),
+                                                min_zncc)
     if fallback is not None:  # again on the grey levels, where G's peak was too weak
         # (off the prediction, or outside the image, the grey levels almost never help:
         # docs/parameters.md, "Searching the grey levels where G fails")
         again = np.flatnonzero((status == _k.WEAK) | (status == _k.BACK_FAILED))
         if len(again):
-            found_again = search_rows((fallback.left, fallback.right,
-                                       fallback.windows_left), again,
-                                      max(min_zncc, GUIDED_FALLBACK_MIN_ZNCC))
+            points = np.ascontiguousarray(pts_l[q[again]])
+            found_again = search_rows(
+                fallback.left, fallback.right, points,
+                gradient_windows(fallback.left, points, fallback.window_size),
+                np.arange(len(again), dtype=np.int64), again,
+                max(min_zncc, GUIDED_FALLBACK_MIN_ZNCC))
             took = found_again[0] == _k.FOUND
             for ours, theirs in zip((status, best, second, xr, sim), found_again):
                 ours[again[took]] = theirs[took]

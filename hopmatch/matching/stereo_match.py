@@ -18,7 +18,6 @@ from ..errors import (
     InvalidTypeError,
     UnrectifiedPairWarning,
 )
-from ..feature.descriptor import gradient_windows
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
 from ..feature.gradient import normalised_intensity
 from . import guided, halves
@@ -414,7 +413,7 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
         gm = guided_rounds(pts_l, pts_r, descriptors[0], descriptors[1], gradients[0],
                            gradients[1], net.query_idx, net.train_idx, offset.at(pts_l),
                            config, margin=config.guided_margin,
-                           fallback=grey_fallback(grays, gradients, pts_l,
+                           fallback=grey_fallback(grays, gradients,
                                                   descriptors[0].shape[1]),
                            threads=threads)
     t1 = time.perf_counter()
@@ -467,10 +466,10 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
         n_detected_right=n_right, guided=gm, refinement=refinement, row_offset=offset)
 
 
-def grey_fallback(grays, gradients, pts_l, window_values: int) -> GreyFallback | None:
+def grey_fallback(grays, gradients, window_values: int) -> GreyFallback | None:
     """The guided rounds' :class:`~.guided.GreyFallback` of a pair whose (left, right)
-    grey images are ``grays``, feature images ``gradients`` and left points ``pts_l``,
-    described by windows of ``window_values`` values (a square side's square); None
+    grey images are ``grays`` and feature images ``gradients``, its points described by
+    windows of ``window_values`` values (a square side's square); None
     without :data:`~.guided.GUIDED_FALLBACK`, or when the feature images are the
     normalised grey levels themselves (``on="intensity"``: the same search again)."""
     if not guided.GUIDED_FALLBACK:
@@ -478,9 +477,8 @@ def grey_fallback(grays, gradients, pts_l, window_values: int) -> GreyFallback |
     left = normalised_intensity(np.asarray(grays[0]))
     if left.shape == np.shape(gradients[0]) and np.array_equal(left, gradients[0]):
         return None
-    size = int(round(np.sqrt(window_values)))
     return GreyFallback(left, normalised_intensity(np.asarray(grays[1])),
-                        gradient_windows(left, pts_l, size))
+                        int(round(np.sqrt(window_values))))
 
 
 def _without(drop, query_idx, train_idx, points_right, pts_r, n_right, passes, distances,

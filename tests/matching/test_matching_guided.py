@@ -387,13 +387,13 @@ def test_grey_fallback_searches_the_grey_levels_only_where_the_search_on_g_faile
     config = net.config
     qi, ti = net.query_idx[::3], net.train_idx[::3]
     yoff = np.zeros(len(pl))
-    fb = grey_fallback((left, right), (gl, gr), pl, dl.shape[1])
-    size = int(round(np.sqrt(dl.shape[1])))
-    np.testing.assert_array_equal(fb.windows_left, gradient_windows(fb.left, pl, size))
+    fb = grey_fallback((left, right), (gl, gr), dl.shape[1])
+    assert fb.window_size ** 2 == dl.shape[1]
+    grey_windows = gradient_windows(fb.left, pl, fb.window_size)
     msim = similarity_distance(dl, dr, qi, ti, gain_tolerance=config.gain_tolerance)
     kw = dict(margin=0.1, window=2.0, matched_similarity=msim)
     on_g = guided_search(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config, **kw)
-    on_grey = guided_search(pl, pr, fb.windows_left, dr, fb.left, fb.right, qi, ti, yoff,
+    on_grey = guided_search(pl, pr, grey_windows, dr, fb.left, fb.right, qi, ti, yoff,
                             config, min_zncc=max(GUIDED_MIN_ZNCC, GUIDED_FALLBACK_MIN_ZNCC),
                             **kw)
     both = guided_search(pl, pr, dl, dr, gl, gr, qi, ti, yoff, config, fallback=fb, **kw)
@@ -422,12 +422,12 @@ def test_grey_fallback_is_off_on_grey_feature_images_and_without_guided_fallback
     det = hopmatch.DericheMoravecDetector(on="intensity")
     pl, _, dl, gl = det.detect_and_describe(left)
     pr, _, dr, gr = det.detect_and_describe(right)
-    assert grey_fallback((left, right), (gl, gr), pl, dl.shape[1]) is None
+    assert grey_fallback((left, right), (gl, gr), dl.shape[1]) is None
     g_l = hopmatch.DericheMoravecDetector().feature_image(left)
     g_r = hopmatch.DericheMoravecDetector().feature_image(right)
-    assert grey_fallback((left, right), (g_l, g_r), pl, dl.shape[1]) is not None
+    assert grey_fallback((left, right), (g_l, g_r), dl.shape[1]) is not None
     monkeypatch.setattr(guided_module, "GUIDED_FALLBACK", False)
-    assert grey_fallback((left, right), (g_l, g_r), pl, dl.shape[1]) is None
+    assert grey_fallback((left, right), (g_l, g_r), dl.shape[1]) is None
 
 
 def test_guided_pass_without_network_matches_finds_nothing():
