@@ -317,7 +317,8 @@ def as_calibration(calibration, name: str = "calibration") -> StereoCalibration:
     return calibration
 
 
-#: Most corners :func:`calibrate_from_corners` takes over all views and both cameras.
+#: Most target corners :func:`calibrate_from_corners` takes, over all views (each corner
+#: seen by both cameras).
 MAX_CALIBRATION_CORNERS = 1 << 22
 
 
@@ -384,11 +385,11 @@ def calibrate_from_corners(object_points, left_points, right_points,
         if o.ndim != 2 or o.shape[1] != 3:
             raise InvalidArgumentError(
                 f"`object_points[{v}]` must have shape (N, 3), got shape {o.shape}")
-        total += 3 * len(o)
+        total += len(o)
         if total > MAX_CALIBRATION_CORNERS:
             raise InvalidArgumentError(
-                f"the corners hold more than {MAX_CALIBRATION_CORNERS} values; calibrate "
-                "from fewer views or corners")
+                f"the views hold more than {MAX_CALIBRATION_CORNERS} corners in all; "
+                "calibrate from fewer views or corners")
         lp, rp = as_points(lp, f"left_points[{v}]"), as_points(rp, f"right_points[{v}]")
         if not (len(o) == len(lp) == len(rp)) or len(o) < 4:
             raise InvalidArgumentError(

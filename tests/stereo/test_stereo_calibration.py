@@ -239,3 +239,14 @@ def test_calibrate_from_corners_refuses_bad_corners_by_name(change, error, words
     with pytest.raises(error, match=re.escape(words)):
         calibrate_from_corners(*args)
     assert cv2.getNumThreads() == before
+
+
+def test_calibrate_from_corners_refuses_too_many_corners_before_calibrating(monkeypatch):
+    from hopmatch.stereo import calibrate_from_corners, calibration
+
+    obj, left, right = _chessboard_views(4)  # 4 views of 54 corners: 216 in all
+    monkeypatch.setattr(calibration, "MAX_CALIBRATION_CORNERS", 200)
+    with pytest.raises(InvalidArgumentError, match="more than 200 corners"):
+        calibrate_from_corners(obj, left, right, SIZE)
+    monkeypatch.setattr(calibration, "MAX_CALIBRATION_CORNERS", 216)
+    assert calibrate_from_corners(obj, left, right, SIZE)[1] < 0.01
