@@ -98,6 +98,15 @@ GUIDED_SEED_ROUNDS = 1
 #: has round 1's settings, and no larger a window than the last round), so they find the
 #: same (False: every unmatched point is searched again).
 GUIDED_SEED_NEAR = True
+#: Most ZNCC columns the seeds' search scores in all: each seed scores the columns of the
+#: whole range (``2 outer + 3``), and beyond this budget only the strongest seeds are
+#: searched (the left points come strongest first). A seed's search costs the width of the
+#: range, and the seeds grow with the points: with no bound the search grows as the cube
+#: of the image's width (on motorcycle upsampled to 2964 x 2000, 140,000 seeds over 395
+#: columns: about 1 s of 2.9 s, where the strongest seeds within the budget keep all but
+#: 29 of the seeds' 2,067 correct matches). No shared scene reaches it (aloe, the largest,
+#: scores 2.8 million columns): docs/parameters.md, "A budget for the seeds".
+GUIDED_SEED_WORK = 4_000_000
 #: Where the row search on the feature image G finds a peak too weak (low ZNCC, or short of
 #: the uniqueness margin) or fails the left-right check, the guided rounds search that
 #: left point again on the pair's normalised grey levels (:class:`GreyFallback`; the
@@ -455,7 +464,7 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
 def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, config,
               matched_similarity, *, min_zncc: float | None = None,
               margin: float | None = None, min_field: float | None = None,
-              threads: int | None = None) -> GuidedMatches:
+              max_work: int | None = None, threads: int | None = None) -> GuidedMatches:
     """Seeds where the matches do not reach: the left points not in ``query_idx`` with
     fewer than ``GUIDED_MIN_SUPPORT`` of them in the network's window, each searched
     along its whole row of the right image (the disparity range ``[min_disparity,
@@ -467,12 +476,16 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     neighbours being the matches *and the other peaks found so* (each but itself): a peak
     far from every match is kept only when enough peaks around it agree on one surface (the
     local plane of those neighbours carries them, as in :func:`guided_pass`).
-    ``matched_similarity``: eq. 7's distance of each matched pair. None for the module's
-    ``GUIDED_SEED_*`` values. Returns them as :class:`GuidedMatches` (empty when the range
-    is not resolved)."""
+    ``matched_similarity``: eq. 7's distance of each matched pair. ``max_work``: the most
+    ZNCC columns scored in all (each seed scores ``2 outer + 3``, ``outer`` half the range
+    plus one); beyond it only the first seeds in the order of ``pts_l`` (the detector's:
+    strongest first) are searched, at least one. None for the module's ``GUIDED_SEED_*``
+    values. Returns them as :class:`GuidedMatches` (empty when the range is not
+    resolved)."""
     min_zncc = GUIDED_SEED_ZNCC if min_zncc is None else min_zncc
     margin = GUIDED_SEED_MARGIN if margin is None else margin
     min_field = GUIDED_SEED_FIELD if min_field is None else min_field
+    max_work = GUIDED_SEED_WORK if max_work is None else max_work
     d_hi = config.max_disparity
     n_left = len(pts_l)
     if d_hi is None or n_left == 0 or desc_l.dtype == np.uint8:
@@ -492,6 +505,7 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     if len(q) == 0:
         return empty_guided()
     outer = int(np.ceil(0.5 * (float(d_hi) - d_lo))) + 1
+    q = q[:max(1, int(max_work) // (2 * outer + 3))]  # the strongest within the budget
     centre = np.ascontiguousarray(pts_l[q, 0].astype(np.float64) - 0.5 * (d_lo + float(d_hi)))
     yoff = np.ascontiguousarray(np.asarray(y_offset, dtype=np.float64)[q])
     status, best, second, xr, sim = map_chunks(

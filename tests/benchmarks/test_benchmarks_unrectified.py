@@ -35,6 +35,10 @@ def test_unrectified_smoke(shared_data):
     assert re.search(r"^All pairs, undistorted: match_stereo \d+ of \d+", out, re.M)
     assert re.search(r"^## Large pair: motorcycle upsampled to 1000 x 675", out, re.M)
     assert re.search(r"^precision: 0\.\d+ at 1 px, 0\.\d+ at 2 px", out, re.M)
+    assert re.search(r"^time \(best of 3\): [\d.]+ s; peak memory \d+ MB; SIFT "
+                     r"detectAndCompute on both images [\d.]+ s \(ratio [\d.]+\)$", out, re.M)
+    assert re.search(r"^stages of the last run: detect_left [\d.]+ s, detect_right [\d.]+ s, "
+                     r"network [\d.]+ s, guided [\d.]+ s, refine [\d.]+ s$", out, re.M)
     assert re.search(r"^precision at 1 px by ground truth: flat [\d.]+ of \d+; slanted "
                      r"(?:[\d.]+|nan) of \d+; edge (?:[\d.]+|nan) of \d+; mean error within "
                      r"2 px [+-][\d.]+ px$", out, re.M)

@@ -615,3 +615,45 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test():
     # without a resolved range there is nothing to search
     unresolved = matcher_config({"max_disparity": None})
     assert len(seed_pass(pl, pr, dl, gl, gr, qi, ti, yoff, unresolved, msim).query_idx) == 0
+
+
+def test_seeds_beyond_the_work_budget_are_the_weakest_left_out(monkeypatch):
+    """seed_pass with ``max_work``: it searches the first seeds in the order of the left
+    points (the detector's, strongest first) whose whole-range searches (``2 outer + 3``
+    columns each) fit in the budget, at least one; with a budget they all fit in, it
+    searches every seed and finds what it finds without a budget."""
+    pl, dl, gl, pr, dr, gr, net = _network_case(rows=64)
+    config = net.config
+    keep = pl[net.query_idx, 0] < 60  # many seeds: the points right of the strip
+    qi, ti = net.query_idx[keep], net.train_idx[keep]
+    msim = similarity_distance(dl, dr, qi.astype(np.int32), ti.astype(np.int32),
+                               gain_tolerance=config.gain_tolerance)
+    yoff = np.zeros(len(pl))
+    searched = []
+    search = _k.row_search
+
+    def recording(g_l, g_r, pts_l, desc_l, queries, *args):
+        searched.append(np.array(queries))
+        return search(g_l, g_r, pts_l, desc_l, queries, *args)
+
+    monkeypatch.setattr(_k, "row_search", recording)
+
+    def seeds(max_work):
+        searched.clear()
+        got = seed_pass(pl, pr, dl, gl, gr, qi, ti, yoff, config, msim, max_work=max_work)
+        return got, np.sort(np.concatenate(searched))
+
+    lo, hi = float(config.min_disparity or 0.0), float(config.max_disparity)
+    span = 2 * (int(np.ceil(0.5 * (hi - lo))) + 1) + 3
+    every, all_q = seeds(10**12)
+    assert len(all_q) > 20 and len(every.query_idx) > 5
+    for fits in (len(all_q), len(all_q) + 7):  # every seed fits: the same seeds
+        got, q = seeds(fits * span)
+        np.testing.assert_array_equal(q, all_q)
+        for f in ("query_idx", "right_points", "fields"):
+            np.testing.assert_array_equal(getattr(got, f), getattr(every, f))
+    k = len(all_q) // 3
+    for budget, n in ((k * span, k), (k * span + span - 1, k), (span - 1, 1), (0, 1)):
+        got, q = seeds(budget)
+        np.testing.assert_array_equal(q, all_q[:n])  # the strongest n
+        assert np.isin(got.query_idx, all_q[:n]).all()
