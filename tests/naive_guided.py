@@ -131,29 +131,38 @@ def field(pl, pr, sim, neighbours_left, neighbours_right, neighbours_sim, theta,
     return total
 
 
-def local_plane(query, neighbours_left, disparities, inlier, min_count):
+def local_plane(query, neighbours_left, disparities, inlier, min_count, reach=None,
+                refits=0):
     """The guided pass's prediction at ``query`` from its matched neighbours, as
     ``hopmatch._kernels.guided.neighbour_planes`` documents it: ``(prediction, gx, gy)``,
-    the least-squares plane ``d = a + gx (x - xq) + gy (y - yq)`` through the neighbours
-    within ``inlier`` of their median (``np.linalg.lstsq``), or the median with zero
-    gradient when fewer than ``min_count`` are inliers, the fit is degenerate or a lies
-    more than ``inlier`` from the median."""
+    the least-squares plane ``d = a + gx (x - xq) + gy (y - yq)`` (``np.linalg.lstsq``)
+    through the neighbours within ``inlier`` of their median, then ``refits`` times through
+    those within ``inlier`` of the plane before (a refit with fewer than ``min_count`` of
+    them, or a degenerate one, keeps the plane before); or the median with zero gradient
+    when the first fit has fewer than ``min_count`` inliers or is degenerate, or a lies
+    more than ``reach`` (None: ``inlier``) from the median."""
     d = np.asarray(disparities, np.float64)
     if len(d) == 0:
         return float("nan"), 0.0, 0.0
     m = float(np.median(d))
-    keep = np.abs(d - m) <= inlier
-    if keep.sum() < min_count:
+    reach = inlier if reach is None else reach
+    rel = np.asarray(neighbours_left, np.float64) - np.asarray(query, np.float64)
+    a_all = np.c_[np.ones(len(d)), rel]
+    plane = None
+    centre = np.full(len(d), m)  # the first band: around the median
+    for _ in range(refits + 1):
+        keep = np.abs(d - centre) <= inlier
+        if keep.sum() < min_count:
+            break
+        a_mat = a_all[keep]
+        n = a_mat.T @ a_mat
+        if not np.linalg.det(n) > 1e-9 * n[0, 0] * n[1, 1] * n[2, 2]:
+            break
+        plane, *_ = np.linalg.lstsq(a_mat, d[keep], rcond=None)
+        centre = a_all @ plane
+    if plane is None or abs(plane[0] - m) > reach:
         return m, 0.0, 0.0
-    pts = np.asarray(neighbours_left, np.float64)[keep] - np.asarray(query, np.float64)
-    a_mat = np.c_[np.ones(keep.sum()), pts]
-    n = a_mat.T @ a_mat
-    if not np.linalg.det(n) > 1e-9 * n[0, 0] * n[1, 1] * n[2, 2]:
-        return m, 0.0, 0.0
-    (a, gx, gy), *_ = np.linalg.lstsq(a_mat, d[keep], rcond=None)
-    if abs(a - m) > inlier:
-        return m, 0.0, 0.0
-    return float(a), float(gx), float(gy)
+    return float(plane[0]), float(plane[1]), float(plane[2])
 
 
 def parabola_search(z, xr, step, levels, iterations, tol, max_shift):

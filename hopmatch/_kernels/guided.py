@@ -405,23 +405,71 @@ def continuity_field(pts_q, xr, yr, sim_q, offsets, idx, rows, m_left, m_right, 
 
 
 @jit
-def neighbour_planes(queries, offsets, idx, m_left, values, inlier, min_count):
+def _band_plane(lo, hi, idx, m_left, values, xq, yq, pa, pb, pc, band, min_count):
+    """Least-squares plane ``d = a + b (x - xq) + c (y - yq)`` through the neighbours
+    ``idx[lo:hi]`` whose disparity lies within ``band`` px of the plane ``(pa, pb, pc)``:
+    ``(fitted, a, b, c)``, ``fitted`` False when fewer than ``min_count`` of them do or
+    their positions span no plane (the normal matrix's determinant below 1e-9 of the
+    product of its diagonal)."""
+    n = 0.0
+    sx = sy = sxx = sxy = syy = 0.0
+    sd = sxd = syd = 0.0
+    for t in range(lo, hi):
+        j = idx[t]
+        d = np.float64(values[j])
+        x = np.float64(m_left[j, 0]) - xq
+        y = np.float64(m_left[j, 1]) - yq
+        if abs(d - (pa + pb * x + pc * y)) > band:
+            continue
+        n += 1.0
+        sx += x
+        sy += y
+        sxx += x * x
+        sxy += x * y
+        syy += y * y
+        sd += d
+        sxd += x * d
+        syd += y * d
+    if n < min_count:
+        return False, 0.0, 0.0, 0.0
+    # normal equations [[n, sx, sy], [sx, sxx, sxy], [sy, sxy, syy]] (a, b, c) = rhs
+    c00 = sxx * syy - sxy * sxy
+    c01 = sy * sxy - sx * syy
+    c02 = sx * sxy - sy * sxx
+    det = n * c00 + sx * c01 + sy * c02
+    if not det > 1e-9 * n * sxx * syy:
+        return False, 0.0, 0.0, 0.0
+    a = (sd * c00 + sxd * c01 + syd * c02) / det
+    # b and c by Cramer's rule on the other two columns
+    b = (n * (sxd * syy - sxy * syd) - sd * (sx * syy - sxy * sy)
+         + sy * (sx * syd - sxd * sy)) / det
+    c = (n * (sxx * syd - sxd * sxy) - sx * (sx * syd - sxd * sy)
+         + sd * (sx * sxy - sxx * sy)) / det
+    return True, a, b, c
+
+
+@jit
+def neighbour_planes(queries, offsets, idx, m_left, values, inlier, min_count, reach=-1.0,
+                     refits=0):
     """Disparity predicted at each query point by a local plane of its matched neighbours.
 
     For query q (point ``queries[q]``, neighbours ``idx[offsets[q]:offsets[q + 1]]`` into
     ``m_left`` with disparities ``values``): m is the median of the neighbours'
     disparities (as :func:`neighbour_medians`); the neighbours within ``inlier`` px of m
-    are fitted by least squares with ``d = a + b (x - xq) + c (y - yq)``, and the
-    prediction is a, the plane at the query. The median is returned instead when fewer
-    than ``min_count`` neighbours are inliers, when the fit is degenerate (the inliers'
-    positions span no plane: the normal matrix's determinant is below 1e-9 of the
-    product of its diagonal), or when a lies more than ``inlier`` px from m. NaN for a
-    query without neighbours.
+    are fitted by least squares with ``d = a + b (x - xq) + c (y - yq)``, then ``refits``
+    times the neighbours within ``inlier`` px of the plane fitted last (a refit that has
+    fewer than ``min_count`` inliers, or is degenerate, keeps the plane before it); the
+    prediction is a, the plane at the query. The median is returned instead when the
+    first fit has fewer than ``min_count`` inliers or is degenerate (the inliers'
+    positions span no plane: the normal matrix's determinant is below 1e-9 of the product
+    of its diagonal), or when a lies more than ``reach`` px from m (``reach`` < 0:
+    ``inlier``). NaN for a query without neighbours.
 
     Returns ``(prediction, gx, gy)``: the plane's gradient (b, c) in px of disparity per
     px, 0 where the median is returned.
     """
     nq = offsets.shape[0] - 1
+    reach = inlier if reach < 0.0 else reach
     med = neighbour_medians(offsets, idx, values)
     out = med.copy()
     gx = np.zeros(nq)
@@ -432,40 +480,21 @@ def neighbour_planes(queries, offsets, idx, m_left, values, inlier, min_count):
             continue
         xq = np.float64(queries[q, 0])
         yq = np.float64(queries[q, 1])
-        n = 0.0
-        sx = sy = sxx = sxy = syy = 0.0
-        sd = sxd = syd = 0.0
-        for t in range(offsets[q], offsets[q + 1]):
-            j = idx[t]
-            d = np.float64(values[j])
-            if abs(d - m) > inlier:
-                continue
-            x = np.float64(m_left[j, 0]) - xq
-            y = np.float64(m_left[j, 1]) - yq
-            n += 1.0
-            sx += x
-            sy += y
-            sxx += x * x
-            sxy += x * y
-            syy += y * y
-            sd += d
-            sxd += x * d
-            syd += y * d
-        if n < min_count:
-            continue
-        # normal equations [[n, sx, sy], [sx, sxx, sxy], [sy, sxy, syy]] (a, b, c) = rhs
-        c00 = sxx * syy - sxy * sxy
-        c01 = sy * sxy - sx * syy
-        c02 = sx * sxy - sy * sxx
-        det = n * c00 + sx * c01 + sy * c02
-        if not det > 1e-9 * n * sxx * syy:
-            continue
-        a = (sd * c00 + sxd * c01 + syd * c02) / det
-        if abs(a - m) <= inlier:
-            out[q] = a
-            # b and c by Cramer's rule on the other two columns
-            gx[q] = (n * (sxd * syy - sxy * syd) - sd * (sx * syy - sxy * sy)
-                     + sy * (sx * syd - sxd * sy)) / det
-            gy[q] = (n * (sxx * syd - sxd * sxy) - sx * (sx * syd - sxd * sy)
-                     + sd * (sx * sxy - sxx * sy)) / det
+        # the band around the median first (the plane m + 0 x + 0 y), then around the
+        # plane fitted last
+        pa = m
+        pb = 0.0
+        pc = 0.0
+        fitted = False
+        for _ in range(refits + 1):
+            ok, a, b, c = _band_plane(offsets[q], offsets[q + 1], idx, m_left, values, xq, yq,
+                                      pa, pb, pc, inlier, min_count)
+            if not ok:
+                break
+            pa, pb, pc = a, b, c
+            fitted = True
+        if fitted and abs(pa - m) <= reach:
+            out[q] = pa
+            gx[q] = pb
+            gy[q] = pc
     return out, gx, gy

@@ -55,6 +55,16 @@ GUIDED_MIN_SUPPORT = 3
 GUIDED_PLANE_INLIER = 2.0
 #: Fewest such neighbours for a plane (fewer: the median predicts, with no gradient).
 GUIDED_PLANE_MIN = 4
+#: Refits of the local plane: the neighbours within ``GUIDED_PLANE_INLIER`` px of the plane
+#: fitted last (first of the median) make the next fit, so that on a slanted surface
+#: (a road, a floor) the band follows the slope rather than cutting it across.
+GUIDED_PLANE_REFITS = 1
+#: Farthest the plane's value at the point may lie from the neighbours' median (px; -1:
+#: ``GUIDED_PLANE_INLIER``, as until 2026-12-04): unbounded, since on a slanted surface
+#: whose matches lie on one side of the point (the front of the propagation down a road)
+#: the median lags the plane by the slope times their distance, and the median was then
+#: predicted instead: docs/parameters.md, "Planes that follow a slope".
+GUIDED_PLANE_REACH = np.inf
 #: The prediction (and the local plane's gradient) comes from this many matched
 #: neighbours nearest the point (Euclidean, in the window it takes them from; 0: all of
 #: them). The field test still counts every neighbour in that window.
@@ -408,7 +418,8 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     p_off, p_idx = ((off, idx) if GUIDED_PREDICT_NEAREST <= 0 else
                     nearest_of(qpts, off, idx, m_left, int(GUIDED_PREDICT_NEAREST)))
     pred, gx, gy = neighbour_planes(qpts, p_off, p_idx, m_left, disp, GUIDED_PLANE_INLIER,
-                                    GUIDED_PLANE_MIN, threads=threads)
+                                    GUIDED_PLANE_MIN, GUIDED_PLANE_REACH, GUIDED_PLANE_REFITS,
+                                    threads=threads)
     pred = pred[rows]
     gx = np.clip(gx[rows], -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
     gy = np.clip(gy[rows], -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
@@ -534,7 +545,8 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     idx = np.ascontiguousarray(idx[others], dtype=np.int32)
     disp = m_left[:, 0].astype(np.float64) - m_right[:, 0]
     _, gx, gy = neighbour_planes(qpts, off, idx, m_left, disp, GUIDED_PLANE_INLIER,
-                                 GUIDED_PLANE_MIN, threads=threads)
+                                 GUIDED_PLANE_MIN, GUIDED_PLANE_REACH, GUIDED_PLANE_REFITS,
+                                 threads=threads)
     gx = np.clip(gx, -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
     gy = np.clip(gy, -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
     u = _k.continuity_field(qpts, xr, yr, sim, off, idx, np.arange(len(q)), m_left, m_right,

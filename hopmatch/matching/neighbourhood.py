@@ -32,12 +32,12 @@ def query_neighbours(queries, matched, half_w, half_h, threads: int | None = Non
 
 
 def neighbour_planes(queries, offsets, idx, m_left, values, inlier, min_count,
-                     threads: int | None = None):
+                     reach: float = -1.0, refits: int = 0, threads: int | None = None):
     """:func:`hopmatch._kernels.guided.neighbour_planes` (same arguments, same
     ``(prediction, gx, gy)``), in up to ``threads`` threads."""
     parts = map_ranges(lambda lo, hi: _kg.neighbour_planes(queries[lo:hi], offsets[lo:hi + 1],
                                                            idx, m_left, values, inlier,
-                                                           min_count),
+                                                           min_count, reach, refits),
                        len(offsets) - 1, threads)
     if len(parts) == 1:
         return parts[0]

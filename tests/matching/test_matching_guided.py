@@ -20,6 +20,8 @@ from hopmatch.matching.guided import (
     GUIDED_MIN_ZNCC,
     GUIDED_PLANE_INLIER,
     GUIDED_PLANE_MIN,
+    GUIDED_PLANE_REACH,
+    GUIDED_PLANE_REFITS,
     GUIDED_RADIUS,
     GUIDED_SEED_FIELD,
     GUIDED_SEED_MARGIN,
@@ -182,9 +184,12 @@ def test_continuity_field_matches_the_reference():
         assert ug[q] == pytest.approx(ng.field(*args, gradient=(gx[q], gy[q])), abs=1e-9)
 
 
-def test_neighbour_planes_match_the_reference():
+@pytest.mark.parametrize("reach, refits", [(-1.0, 0), (np.inf, 1), (3.0, 2)])
+def test_neighbour_planes_match_the_reference(reach, refits):
     """Queries on a slanted plane (some neighbours off it, some with too few inliers or
-    collinear ones): the kernel's prediction and gradient equal the reference's."""
+    collinear ones): the kernel's prediction and gradient equal the reference's, with the
+    band around the median only (``refits`` 0) or refitted around the plane, and the
+    plane's value bounded to ``reach`` from the median (-1: the band) or not."""
     matched = RNG.uniform(0, 100, (300, 2)).astype(np.float32)
     disp = 10.0 + 0.3 * matched[:, 0] - 0.2 * matched[:, 1] + RNG.normal(0, 0.2, 300)
     disp[::7] += 15.0  # a second surface: outliers of the plane
@@ -197,15 +202,19 @@ def test_neighbour_planes_match_the_reference():
     off[-1] = off[-2] + 3
     matched = np.r_[matched, line]
     disp = np.r_[disp, [20.0, 21.0, 22.0]]
-    pred, gx, gy = _k.neighbour_planes(queries, off, idx, matched, disp, 2.0, 3)
+    pred, gx, gy = _k.neighbour_planes(queries, off, idx, matched, disp, 2.0, 3, reach, refits)
     planes = 0
     for q in range(len(queries)):
         j = idx[off[q]:off[q + 1]]
-        a, bx, by = ng.local_plane(queries[q], matched[j], disp[j], 2.0, 3)
+        a, bx, by = ng.local_plane(queries[q], matched[j], disp[j], 2.0, 3,
+                                   None if reach < 0 else reach, refits)
         assert pred[q] == pytest.approx(a, abs=1e-6), q
         assert gx[q] == pytest.approx(bx, abs=1e-6) and gy[q] == pytest.approx(by, abs=1e-6)
         planes += bx != 0.0
     assert planes > len(queries) // 2 and gx[-1] == 0.0 and pred[-1] == 21.0
+    if refits:  # the refitted band takes other neighbours than the median's
+        median_band = _k.neighbour_planes(queries, off, idx, matched, disp, 2.0, 3)[0]
+        assert np.count_nonzero(pred != median_band) > 5
 
 
 def _scene(shift=6, noise=0.0):
@@ -273,7 +282,8 @@ def test_guided_matches_pass_every_acceptance_test(step, window, peaks, monkeypa
         grown += len(nb[m]) < 3
         assert len(j) >= 3
         pred, gx, gy = ng.local_plane(pl[i], ml[j], disp[j], GUIDED_PLANE_INLIER,
-                                      GUIDED_PLANE_MIN)
+                                      GUIDED_PLANE_MIN, GUIDED_PLANE_REACH,
+                                      GUIDED_PLANE_REFITS)
         grad = tuple(float(np.clip(g, -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT))
                      for g in (gx, gy))
         centre = float(pl[i, 0]) - pred
@@ -592,7 +602,7 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test():
     for m, (i, xr, sim) in enumerate(peaks):
         j = np.array(sorted(nb[m] - {len(qi) + m}))  # the matches and the other peaks
         _, gx, gy = ng.local_plane(pl[i], ml[j], disp[j], GUIDED_PLANE_INLIER,
-                                   GUIDED_PLANE_MIN)
+                                   GUIDED_PLANE_MIN, GUIDED_PLANE_REACH, GUIDED_PLANE_REFITS)
         grad = tuple(float(np.clip(g, -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT))
                      for g in (gx, gy))
         u = ng.field((float(pl[i, 0]), float(pl[i, 1])), (xr, float(pl[i, 1])), sim, ml[j],
