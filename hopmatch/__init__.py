@@ -81,10 +81,21 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(LAZY_SUBMODULES))
 
 
-def warmup() -> float:
+def warmup(processes: int = 1) -> float:
     """Compile every Numba kernel now (on tiny inputs) and return the seconds it took.
 
     With the on-disk cache warm (``cache=True``, the default) this only loads machine code.
+
+    Parameters
+    ----------
+    processes : int
+        1 (default): compile in this process. 2 (or more): a second Python interpreter
+        (``sys.executable``) compiles half of the kernels into the on-disk cache meanwhile,
+        and this process loads them from it: Numba compiles one kernel at a time per
+        process, so this is how a cold compile uses two cores (about 40 % less time on a
+        2-core machine; docs/performance.md, "The first run"). Without the on-disk cache
+        it compiles in this process alone. ``hopmatch warmup`` uses 2 on a machine with 2
+        or more cores.
 
     Examples
     --------
@@ -92,6 +103,7 @@ def warmup() -> float:
     >>> seconds >= 0.0
     True
     """
+    from ._params import integer
     from ._warmup import warmup as _warmup
 
-    return _warmup()
+    return _warmup(integer(1, 4096)("processes", processes))

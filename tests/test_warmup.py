@@ -89,3 +89,59 @@ def test_warmup_compiles_each_kernel_once_and_none_of_numbas_costly_extras(cold_
     sorts = Counter(name for name in compiled if name.startswith("numba.misc.quicksort."))
     assert sorts and max(sorts.values()) == 1, sorts
     assert [name for name in compiled if name.startswith("numba.cpython.unicode.")] == []
+
+
+TWO_PROCESSES = textwrap.dedent("""
+    import importlib, json, sys
+    from numba.core import event
+    compiled = []
+
+
+    class Seen(event.Listener):  # every specialisation this process compiles
+        def on_start(self, ev):
+            f = ev.data["dispatcher"].py_func
+            compiled.append(f"{f.__module__}.{f.__qualname__}")
+
+        def on_end(self, ev):
+            pass
+
+
+    event.register("numba:compile", Seen())
+    import hopmatch
+    hopmatch.warmup(2)
+    out = {}
+    for module, name in json.loads(sys.argv[1]):
+        kernel = getattr(importlib.import_module(module), name)
+        out[f"{module}.{name}"] = len(kernel.signatures)
+    print(json.dumps({"signatures": out, "compiled": compiled}))
+""")
+
+
+def test_warmup_in_two_processes_loads_the_helpers_kernels_from_the_cache(tmp_path):
+    """``warmup(2)`` with an empty on-disk cache: afterwards every kernel the library calls
+    is ready in this process, the network's compiled here, the detector's and the guided
+    pass's compiled by the second interpreter and only loaded here (no compile event)."""
+    kernels = kernels_called_from_python()
+    env = {**os.environ, "HOPMATCH_NUMBA_CACHE": "1", "NUMBA_CACHE_DIR": str(tmp_path),
+           "HOPMATCH_COMPILE_NOTICE": "0"}
+    proc = subprocess.run([sys.executable, "-c", TWO_PROCESSES, json.dumps(kernels)],
+                          capture_output=True, text=True, env=env, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert [name for name, n in got["signatures"].items() if n == 0] == []
+    here = set(got["compiled"])
+    assert "hopmatch._kernels.network.run_network" in here
+    helpers = {"hopmatch._kernels.guided.row_search", "hopmatch._kernels.refine.refine_rows",
+               "hopmatch._kernels.moravec.moravec_response",
+               "hopmatch._kernels.descriptor.bilinear_windows"}
+    assert helpers <= set(got["signatures"])  # kernels the library calls, by these names
+    assert helpers.isdisjoint(here), helpers & here
+    assert list(tmp_path.rglob("*.nbi"))  # the cache the two shared
+
+
+@pytest.mark.parametrize("bad, error", [(0, hopmatch.errors.InvalidArgumentError),
+                                        (1.5, hopmatch.errors.InvalidTypeError),
+                                        (True, hopmatch.errors.InvalidTypeError)])
+def test_warmup_refuses_a_bad_process_count(bad, error):
+    with pytest.raises(error, match="`processes`"):
+        hopmatch.warmup(bad)

@@ -519,20 +519,26 @@ def detect(ctx, image, out, no_draw, **params):
 
 
 @cli.command()
+@click.option("--processes", type=click.IntRange(1, 4096), default=None, metavar="N",
+              help="Python processes compiling at once (default: 2 on a machine with 2 or "
+                   "more cores, else 1; more than 2 gains nothing).")
 @click.pass_context
-def warmup(ctx):
+def warmup(ctx, processes):
     """Compile every Numba kernel now, for this CPU, and print the time it took.
 
     The machine code goes to Numba's cache (NUMBA_CACHE_DIR, or the package folder), so
     later runs load it instead of compiling. In a Docker image or a CI cache, run it once
-    with NUMBA_CACHE_DIR set to a folder that ships with the image.
+    with NUMBA_CACHE_DIR set to a folder that ships with the image. With the cache on, a
+    second Python process compiles half of the kernels meanwhile (--processes).
     """
     import os
 
     from .._config import CACHE
 
+    if processes is None:
+        processes = min(2, hopmatch.getNumThreads())
     status("loading or compiling the Numba kernels")
-    seconds = hopmatch.warmup()
+    seconds = hopmatch.warmup(processes)
     status.clear()
     where = (os.environ.get("NUMBA_CACHE_DIR") or "the package folder") if CACHE else None
     say(ctx, f"warmup: {seconds:.1f} s, "

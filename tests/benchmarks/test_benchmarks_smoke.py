@@ -194,6 +194,7 @@ def test_first_call_smoke_has_the_readme_rows(run_all_page):
         out,
         r"\| cache \| import ms \| warmup\(\) ms \| first match_stereo after warmup ms \|",
         table_row(r"cold \(compile\)", r"\d+", r"\d+", r"\d+"),
+        table_row(r"cold, warmup\(2\): two processes", r"\d+", r"\d+", r"\d+"),
         table_row(r"warm \(load from disk\)", r"\d+", r"\d+", r"\d+"),
     )
 

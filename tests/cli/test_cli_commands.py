@@ -205,6 +205,9 @@ def test_warmup_prints_its_time_and_where_the_kernels_went():
     assert re.fullmatch(r"warmup: \d+\.\d s, (kernels cached in .+|on-disk cache off.+)\n",
                         res.stdout), res.stdout
     assert run("--quiet", "warmup").stdout == ""
+    assert run("warmup", "--processes", "1").returncode == 0
+    res = run("warmup", "--processes", "0")
+    assert res.returncode == 2 and "--processes" in res.stderr
 
 
 @pytest.mark.parametrize("key", ["garbage", "folder"])
