@@ -98,12 +98,14 @@ def single_thread() -> None:
 
 
 def run_fresh_interpreter(child: str, args: list, cache_dir: str | None,
-                          notice: bool) -> dict:
+                          notice: bool, extra_env: dict | None = None) -> dict:
     """Run the script ``child`` (``python -c child *args``) in a fresh interpreter with
-    ``NUMBA_CACHE_DIR=cache_dir`` (None: as set now) and the first-run notice on
-    (``notice``) or off (``HOPMATCH_COMPILE_NOTICE=0``); the JSON object its last line of
-    stdout prints. Raises ``RuntimeError`` with its stderr when it fails."""
+    ``NUMBA_CACHE_DIR=cache_dir`` (None: as set now), the first-run notice on
+    (``notice``) or off (``HOPMATCH_COMPILE_NOTICE=0``) and ``extra_env`` set; the JSON
+    object its last line of stdout prints. Raises ``RuntimeError`` with its stderr when it
+    fails."""
     env = dict(os.environ) if cache_dir is None else dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
+    env.update(extra_env or {})
     if notice:
         env.pop("HOPMATCH_COMPILE_NOTICE", None)
     else:

@@ -3,7 +3,8 @@ compiler pass.
 
 Run: ``python benchmarks/compile_times.py [--first] [--top 25]``
 
-A fresh interpreter with ``NUMBA_CACHE_DIR`` pointing at a new empty folder runs
+A fresh interpreter with ``NUMBA_CACHE_DIR`` pointing at a new empty folder (and
+``HOPMATCH_COMPILE_HELPER=0``: every kernel compiled in that one process) runs
 ``hopmatch.warmup()`` (``--first``: the first ``match_stereo`` on motorcycle instead, what a
 new user waits) and listens to Numba's events: ``"numba:compile"`` (one per specialisation
 compiled, never on a cache load) and ``"numba:run_pass"`` (each compiler pass). Times are
@@ -88,7 +89,8 @@ def run(cache_dir: str | None, mode: str) -> dict:
     """The figures of a fresh interpreter with ``NUMBA_CACHE_DIR=cache_dir`` (None: as set
     now) running ``hopmatch.warmup()`` (``mode`` "warmup") or the first ``match_stereo``
     ("first")."""
-    return run_fresh_interpreter(CHILD, [mode], cache_dir, notice=False)
+    return run_fresh_interpreter(CHILD, [mode], cache_dir, notice=False,
+                                 extra_env={"HOPMATCH_COMPILE_HELPER": "0"})
 
 
 def main(argv=None) -> None:

@@ -4,12 +4,14 @@ Run: ``python benchmarks/first_call.py``
 
 Each measurement is a fresh interpreter with ``NUMBA_CACHE_DIR`` pointing at a new empty
 folder (cold: every kernel is compiled) or at the folder the cold run filled (warm: machine
-code is loaded from disk). It times ``import hopmatch``, ``hopmatch.warmup()`` (which compiles
-or loads every kernel), and the first ``match_stereo`` on motorcycle after it; the same
-cold with ``hopmatch.warmup(2)`` (a second interpreter compiles half of the kernels into the
-cache meanwhile, as ``hopmatch warmup`` does on two cores); then, in a
-third interpreter with another empty cache, what a new user waits: when the first-run
-notice reaches stderr and how long the first ``match_stereo`` takes without ``warmup()``.
+code is loaded from disk). It times ``import hopmatch``, ``hopmatch.warmup(1)`` (which
+compiles or loads every kernel in that process), and the first ``match_stereo`` on
+motorcycle after it; the same cold with ``hopmatch.warmup()`` (on two cores a second
+interpreter compiles part of the kernels into the cache meanwhile); then, in another
+interpreter with another empty cache, what a new user waits: when the first-run notice
+reaches stderr and how long the first ``match_stereo`` takes without ``warmup()`` (the
+helper process its first compilation starts compiles the kernels it needs last), and the
+same with that helper off (``HOPMATCH_COMPILE_HELPER=0``).
 It lists the compile time of each kernel (Numba's ``"numba:compile"`` events, which fire
 on compilation only, never on a cache load).
 
@@ -76,7 +78,7 @@ from hopmatch.datasets import load_motorcycle
 s = load_motorcycle()
 t2 = time.perf_counter()
 if sys.argv[1].startswith("warmup"):
-    hopmatch.warmup(2 if sys.argv[1] == "warmup2" else 1)
+    hopmatch.warmup(1 if sys.argv[1] == "warmup1" else None)
 t3 = time.perf_counter()
 hopmatch.match_stereo(s.left, s.right)
 t4 = time.perf_counter()
@@ -95,13 +97,16 @@ FIRST_RUN = """
 
 hopmatch's kernels are compiled by Numba for the CPU they run on, the first time they are
 needed, and kept in Numba's on-disk cache (`NUMBA_CACHE_DIR`, else next to the package).
-On this machine compiling all of them ({n} kernels, `hopmatch.warmup()`) took {warmup:.1f} s with
-an empty cache, {warmup2:.1f} s in two processes (`hopmatch warmup` on a machine with two or
-more cores, `hopmatch.warmup(2)`: a second Python interpreter compiles the detector's and
-the guided pass's kernels into the cache while the first compiles the network's, then
-loads them; Numba compiles one kernel at a time per process), and a new user's first
-`match_stereo`, which compiles the ones it needs in one process, {first:.1f} s; with the
-cache filled, `warmup()` takes {warm:.2f} s. The moment
+On this machine compiling all of them ({n} kernels) in one process (`hopmatch.warmup(1)`)
+took {warmup:.1f} s with an empty cache, and {warmup2:.1f} s in two (`hopmatch.warmup()` and
+`hopmatch warmup` on a machine with two or more cores: a second Python interpreter compiles
+the detector's kernels and those of the steps after the network into the cache while the
+first compiles the network's, then loads them; Numba compiles one kernel at a time per
+process). A new user's first `match_stereo` took {first:.1f} s ({first1:.1f} s with
+`HOPMATCH_COMPILE_HELPER=0`): the first compilation in a process starts a helper
+interpreter that compiles the kernels of the guided pass, the refinement and the
+half-window test, which the pipeline needs last, while the process compiles the detector
+and the network. With the cache filled, `warmup()` takes {warm:.2f} s. The moment
 compilation starts, one line says so on stderr, once per process and from every entry
 point (the CLI, `match_stereo`, the classes): `hopmatch: compiling hopmatch's kernels for
 this CPU, first run only, about N s` (here after {notice} s; it is driven by Numba's
@@ -124,11 +129,13 @@ and a cache made on another CPU is recompiled, with the notice, on first use.
 """
 
 
-def run(cache_dir: str | None, mode: str = "warmup") -> dict:
+def run(cache_dir: str | None, mode: str = "warmup1", helper: bool = True) -> dict:
     """Times of a fresh interpreter with ``NUMBA_CACHE_DIR=cache_dir`` (None: as set now);
-    ``mode`` "warmup" calls ``hopmatch.warmup()`` before the first ``match_stereo``,
-    "first" does not (what a new user waits)."""
-    return run_fresh_interpreter(CHILD, [mode], cache_dir, notice=True)
+    ``mode`` "warmup1" calls ``hopmatch.warmup(1)`` before the first ``match_stereo``,
+    "warmup" ``hopmatch.warmup()``, "first" neither (what a new user waits); ``helper``
+    False sets ``HOPMATCH_COMPILE_HELPER=0``."""
+    return run_fresh_interpreter(CHILD, [mode], cache_dir, notice=True,
+                                 extra_env={"HOPMATCH_COMPILE_HELPER": "1" if helper else "0"})
 
 
 def main(argv=None) -> None:
@@ -136,19 +143,22 @@ def main(argv=None) -> None:
     args = add_smoke_option(parser).parse_args(argv)
     if args.smoke:
         cold, warm, first = run(None), run(None), run(None, "first")
-        cold2 = run(None, "warmup2")
+        cold2, first1 = run(None, "warmup"), run(None, "first", helper=False)
     else:
         with tempfile.TemporaryDirectory() as cache:
             cold = run(cache)
             warm = run(cache)
         with tempfile.TemporaryDirectory() as cache:
-            cold2 = run(cache, "warmup2")
+            cold2 = run(cache, "warmup")
         with tempfile.TemporaryDirectory() as cache:
             first = run(cache, "first")
+        with tempfile.TemporaryDirectory() as cache:
+            first1 = run(cache, "first", helper=False)
     print("## First-call delay (fresh interpreter each time)\n")
     print("| cache | import ms | warmup() ms | first match_stereo after warmup ms |")
     print("|---|---:|---:|---:|")
-    for name, r in (("cold (compile)", cold), ("cold, warmup(2): two processes", cold2),
+    for name, r in (("cold (compile), warmup(1): one process", cold),
+                    ("cold, warmup(): two processes on two cores", cold2),
                     ("warm (load from disk)", warm)):
         print(f"| {name} | {r['import'] * 1e3:.0f} | {r['warmup'] * 1e3:.0f} | "
               f"{r['first_match'] * 1e3:.0f} |")
@@ -157,7 +167,9 @@ def main(argv=None) -> None:
     print("\nA new user's first call, empty cache, no warmup(): the first-run notice on "
           "stderr after " + ("- (nothing compiled)" if notice is None else f"{notice:.2f} s")
           + f" (from the start of the interpreter), the first match_stereo on motorcycle "
-          f"took {first['first_match']:.1f} s (after {first['import']:.2f} s of import).")
+          f"took {first['first_match']:.1f} s (after {first['import']:.2f} s of import); "
+          f"{first1['first_match']:.1f} s with the helper process off "
+          "(HOPMATCH_COMPILE_HELPER=0).")
     ours = {k: t for k, t in cold["kernels"].items() if k.startswith("hopmatch.")}
     numba_own = sum(t for k, t in cold["kernels"].items() if k not in ours)
     kernels = sorted(ours.items(), key=lambda kv: -kv[1])
@@ -184,10 +196,10 @@ def main(argv=None) -> None:
         + (" (met)" if got[key] is not None and got[key] <= GOALS[key] else " (NOT met)")
         for key, label in (("notice", "first line printed"),
                            ("first_match", "cold first match_stereo"),
-                           ("warmup", "cold warmup() (this machine)"),
-                           ("warmup2", "cold warmup(2) (this machine)"))))
+                           ("warmup", "cold warmup(1) (this machine)"),
+                           ("warmup2", "cold warmup() (this machine)"))))
     print(FIRST_RUN.format(warmup=cold["warmup"], warmup2=cold2["warmup"],
-                           first=first["first_match"],
+                           first=first["first_match"], first1=first1["first_match"],
                            notice="-" if notice is None else f"{notice:.1f}",
                            warm=warm["warmup"], n=len(kernels) - 1))
     if args.smoke:

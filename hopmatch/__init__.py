@@ -81,21 +81,22 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(LAZY_SUBMODULES))
 
 
-def warmup(processes: int = 1) -> float:
+def warmup(processes: int | None = None) -> float:
     """Compile every Numba kernel now (on tiny inputs) and return the seconds it took.
 
     With the on-disk cache warm (``cache=True``, the default) this only loads machine code.
 
     Parameters
     ----------
-    processes : int
-        1 (default): compile in this process. 2 (or more): a second Python interpreter
-        (``sys.executable``) compiles half of the kernels into the on-disk cache meanwhile,
-        and this process loads them from it: Numba compiles one kernel at a time per
-        process, so this is how a cold compile uses two cores (about 40 % less time on a
-        2-core machine; docs/performance.md, "The first run"). Without the on-disk cache
-        it compiles in this process alone. ``hopmatch warmup`` uses 2 on a machine with 2
-        or more cores.
+    processes : int, optional
+        2 (or more): a second Python interpreter (``sys.executable``) compiles the
+        detector's kernels and those of the steps after the network into the on-disk
+        cache meanwhile, and this process loads them from it: Numba compiles one kernel
+        at a time per process, so this is how a cold compile uses two cores (about 40 %
+        less time on a 2-core machine; docs/performance.md, "The first run"). 1: this
+        process only. None (default): 2 when hopmatch may use two or more threads
+        (:func:`getNumThreads`), else 1. Without the on-disk cache, or with
+        ``HOPMATCH_COMPILE_HELPER=0``, it compiles in this process alone.
 
     Examples
     --------
@@ -106,4 +107,4 @@ def warmup(processes: int = 1) -> float:
     from ._params import integer
     from ._warmup import warmup as _warmup
 
-    return _warmup(integer(1, 4096)("processes", processes))
+    return _warmup(integer(1, 4096, optional=True)("processes", processes))

@@ -14,7 +14,10 @@
   ``jit(inline=True)`` (inlined in Numba's IR, before fastmath can reassociate it apart).
 - The moment Numba starts compiling one of hopmatch's kernels (not when it loads one from
   the cache), one line says so on stderr, once per process (:class:`CompileNotice`);
-  ``HOPMATCH_COMPILE_NOTICE=0`` silences it.
+  ``HOPMATCH_COMPILE_NOTICE=0`` silences it. The same moment starts a second Python
+  process that compiles the kernels the pipeline needs last into the on-disk cache
+  (``hopmatch._warmup.start_background_helper``; ``HOPMATCH_COMPILE_HELPER=0`` turns it
+  off).
 """
 
 from __future__ import annotations
@@ -88,6 +91,9 @@ class CompileNotice(numba_event.Listener):
             if self.shown:
                 return
             self.shown = True
+        from ._warmup import start_background_helper
+
+        start_background_helper()  # a second process for the kernels needed last
         if os.environ.get("HOPMATCH_COMPILE_NOTICE", "1").strip().lower() in _OFF:
             return
         try:

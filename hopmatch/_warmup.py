@@ -1,46 +1,69 @@
-"""Compile (or load from cache) every Numba kernel on tiny inputs: ``hopmatch.warmup``.
+"""Compile (or load from cache) every Numba kernel on tiny inputs (``hopmatch.warmup``), and
+the helper process that compiles kernels alongside this one on a cold cache.
 
-The kernels fall in two groups of about equal compile time (:data:`GROUPS`): the detection
-with the steps after the network (guided pass, refinement, half-window test), and the
-network. With ``processes=2`` and the on-disk cache on, a second interpreter compiles the
-first group into the cache while this one compiles the second, then this one loads the
-first from the cache: Numba compiles one kernel at a time per process (a global lock), so
-two processes are the way to use two cores (docs/performance.md, "The first run").
+Numba compiles one kernel at a time per process (a global lock), so a second Python
+interpreter is the way a cold compile uses a second core. The kernels fall in three parts
+(:data:`PARTS`): the detector's, the network's, and those of the steps after the network
+(guided pass, refinement, half-window test). The helper compiles parts into the on-disk
+cache, and this process loads them from it when it gets to them (a kernel it reaches
+before the helper has written it, it compiles itself: the same machine code either way).
+
+- ``warmup(2)``: the helper compiles the detector and the steps after the network while
+  this process compiles the network; then this process loads them.
+- The first compilation of one of hopmatch's kernels in a process (a cold first
+  ``match_stereo``, or any entry point) starts a helper for the steps after the network,
+  which the pipeline reaches last (:func:`start_background_helper`, from
+  ``hopmatch._config.CompileNotice``).
+
+Only with the on-disk cache on (the helper's work reaches this process through it), when
+hopmatch may use two or more threads (``hopmatch.setNumThreads``), and unless
+``HOPMATCH_COMPILE_HELPER=0``. A helper still running when the interpreter exits is
+stopped (its finished kernels stay cached: Numba writes each file whole).
 """
 
 from __future__ import annotations
 
+import atexit
 import os
 import subprocess
 import sys
+import threading
 import time
 
 import numpy as np
 
-#: The groups of kernels, compiled by :func:`warm_group` (index into this tuple).
-GROUPS = ("detection, guided pass, refinement and half-window test", "network")
-#: Seconds :func:`warmup` waits for the second interpreter before compiling its group itself.
+#: Seconds :func:`warmup` waits for its helper before compiling the helper's part itself.
 HELPER_TIMEOUT = 600.0
+#: The environment variable that turns the helper off (``0``, ``false``, ``no``, ``off``).
+HELPER_SWITCH = "HOPMATCH_COMPILE_HELPER"
+
+_OFF = {"0", "false", "no", "off"}
+_state = {"started": False, "helper": None}
+_lock = threading.Lock()
 
 
-def warm_detection_and_beyond() -> None:
-    """Group 0: the detector's kernels (Deriche gradient, Moravec response and maxima,
-    descriptors) and those of the guided pass, the refinement and the half-window test."""
+def warm_detection() -> None:
+    """The detector's kernels: Deriche gradient, Moravec response and maxima, descriptors."""
     from .feature.detector import DericheMoravecDetector
-    from .matching.stereo_match import warm_up_beyond_network
 
     rng = np.random.default_rng(0)
     img = (rng.random((48, 64)) * 255).astype(np.uint8)
     det = DericheMoravecDetector(nms_size=3)
     pts, _, g = det.detect_points(img)
     det.describe_points(g, pts)
+
+
+def warm_beyond_network() -> None:
+    """The kernels of the guided pass, the refinement and the half-window test."""
+    from .matching.stereo_match import warm_up_beyond_network
+
     warm_up_beyond_network()
 
 
 def warm_network() -> None:
-    """Group 1: the network's kernels (candidates along rows and along epipolar lines,
-    similarity of float and binary descriptors, interactions and their bounds, the
-    updates), on points and descriptors of the dtypes the detector gives them."""
+    """The network's kernels (candidates along rows and along epipolar lines, similarity of
+    float and binary descriptors, interactions and their bounds, the updates), on points
+    and descriptors of the dtypes the detector gives them."""
     from ._kernels import interactions as _ki
     from .matching.budget import neighbour_pairs_bound
     from .matching.network import hopfield_match
@@ -62,51 +85,94 @@ def warm_network() -> None:
     hopfield_match(pts, pts, binary, binary, max_disparity=4.0)
 
 
-def warm_group(index: int) -> None:
-    """Compile (or load) the kernels of ``GROUPS[index]``."""
-    (warm_detection_and_beyond, warm_network)[index]()
+#: The parts of :func:`warmup`, by name.
+PARTS = {"detection": warm_detection, "network": warm_network,
+         "beyond network": warm_beyond_network}
 
 
-def start_helper():
-    """A second interpreter compiling group 0 into the on-disk cache (its output
-    discarded, its first-run notice silenced), or None when there is no cache to share."""
+def warm(*names: str) -> None:
+    """Compile (or load) the kernels of the :data:`PARTS` named, in that order."""
+    for name in names:
+        PARTS[name]()
+
+
+def helper_wanted(processes: int) -> bool:
+    """Whether a helper may start: ``processes >= 2``, the on-disk cache on, and
+    :data:`HELPER_SWITCH` not off."""
     from ._config import CACHE
 
-    if not CACHE or not sys.executable:
-        return None
-    env = dict(os.environ, HOPMATCH_COMPILE_NOTICE="0")
+    return (processes >= 2 and CACHE and bool(sys.executable)
+            and os.environ.get(HELPER_SWITCH, "1").strip().lower() not in _OFF)
+
+
+def start_helper(*names: str):
+    """A second interpreter compiling the :data:`PARTS` ``names`` into the on-disk cache (its
+    output discarded, its own notice and helper off), or None when it cannot start."""
+    env = dict(os.environ, HOPMATCH_COMPILE_NOTICE="0", **{HELPER_SWITCH: "0"})
+    code = f"from hopmatch._warmup import warm; warm(*{list(names)!r})"
     try:
-        return subprocess.Popen(
-            [sys.executable, "-c", "from hopmatch._warmup import warm_group; warm_group(0)"],
-            env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL)
+        return subprocess.Popen([sys.executable, "-c", code], env=env,
+                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
     except OSError:
         return None
 
 
-def warmup(processes: int = 1) -> float:
-    """Compile (or load) every kernel in this process; the seconds it took. With
-    ``processes >= 2`` (and the on-disk cache on) group 0 is compiled by a second
-    interpreter meanwhile and then loaded from the cache; should it fail, this process
-    compiles it. When group 1 compiled nothing here (the cache was warm), the helper is
-    stopped and group 0 loaded at once. The helper never outlives the call."""
+def stop(helper) -> None:
+    """Stop ``helper`` if it is still running, and reap it."""
+    if helper is not None and helper.poll() is None:
+        helper.kill()
+        helper.wait()
+
+
+def start_background_helper() -> None:
+    """At the first compilation of one of hopmatch's kernels in this process: a helper for
+    the steps after the network (once per process, when :func:`helper_wanted` with
+    ``hopmatch.getNumThreads()``); stopped at exit if still running."""
+    from ._threads import getNumThreads
+
+    with _lock:
+        if _state["started"]:
+            return
+        _state["started"] = True
+    if not helper_wanted(getNumThreads()):
+        return
+    helper = start_helper("beyond network")
+    if helper is not None:
+        _state["helper"] = helper
+        atexit.register(stop, helper)
+
+
+def warmup(processes: int | None = None) -> float:
+    """Compile (or load) every kernel in this process; the seconds it took.
+
+    ``processes``: None, ``min(2, hopmatch.getNumThreads())``. With 2 or more (and
+    :func:`helper_wanted`) a helper compiles the detector and the steps after the network
+    while this process compiles the network, then this process loads them (should the
+    helper fail, it compiles them). When the network compiled nothing here (the cache was
+    warm), the helper is stopped and the rest loaded at once. 1: this process only. The
+    helper never outlives the call.
+    """
     from numba.core import event
 
+    from ._threads import getNumThreads
+
+    processes = min(2, getNumThreads()) if processes is None else processes
+    with _lock:
+        _state["started"] = True  # no background helper besides this call's
     t0 = time.perf_counter()
-    helper = start_helper() if processes >= 2 else None
+    helper = start_helper("detection", "beyond network") if helper_wanted(processes) else None
     try:
         with event.install_recorder("numba:compile") as compiled:
-            warm_group(1)
+            warm("network")
         if helper is not None and not compiled.buffer:
-            helper.kill()  # a warm cache: loading group 0 here is quicker than waiting
+            stop(helper)  # a warm cache: loading the rest here is quicker than waiting
         elif helper is not None:
             try:
                 helper.wait(timeout=HELPER_TIMEOUT)
             except subprocess.TimeoutExpired:
                 pass
-        warm_group(0)
+        warm("detection", "beyond network")
     finally:
-        if helper is not None and helper.poll() is None:
-            helper.kill()
-            helper.wait()
+        stop(helper)
     return time.perf_counter() - t0

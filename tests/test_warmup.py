@@ -145,3 +145,55 @@ def test_warmup_in_two_processes_loads_the_helpers_kernels_from_the_cache(tmp_pa
 def test_warmup_refuses_a_bad_process_count(bad, error):
     with pytest.raises(error, match="`processes`"):
         hopmatch.warmup(bad)
+
+
+FIRST_COMPILE = textwrap.dedent("""
+    import json, sys
+    import numpy as np
+    import hopmatch
+    from hopmatch import _warmup
+    hopmatch.setNumThreads(int(sys.argv[1]))
+    img = (np.random.default_rng(0).random((40, 60)) * 255).astype(np.uint8)
+    hopmatch.DericheMoravecDetector().detect(img)  # the first compilation of the process
+    helper = _warmup._state["helper"]
+    out = {"pid": None if helper is None else helper.pid}
+    if helper is not None and sys.argv[2] == "wait":
+        out["code"] = helper.wait(timeout=600)
+    print(json.dumps(out))
+""")
+
+
+def _first_compile(tmp_path, threads, wait, **env):
+    """What FIRST_COMPILE prints, run with ``threads`` hopmatch threads and an empty cache
+    in ``tmp_path``; ``env`` on top of this environment without HOPMATCH_COMPILE_HELPER."""
+    inherited = {k: v for k, v in os.environ.items() if k != "HOPMATCH_COMPILE_HELPER"}
+    env = {**inherited, "HOPMATCH_NUMBA_CACHE": "1", "NUMBA_CACHE_DIR": str(tmp_path),
+           "HOPMATCH_COMPILE_NOTICE": "0", **env}
+    proc = subprocess.run([sys.executable, "-c", FIRST_COMPILE, str(threads),
+                           "wait" if wait else "exit"],
+                          capture_output=True, text=True, env=env, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def test_the_first_compilation_starts_a_helper_for_the_kernels_needed_last(tmp_path):
+    """A process's first compilation of one of hopmatch's kernels (here the detector's)
+    starts a second interpreter that compiles the guided pass's and the refinement's
+    kernels into the on-disk cache, where the first process will load them from."""
+    got = _first_compile(tmp_path, 2, wait=True)
+    assert got["pid"] is not None and got["code"] == 0
+    cached = {p.name.split("-")[0] for p in tmp_path.rglob("*.nbi")}
+    assert {"guided.row_search", "refine.refine_rows", "halves.half_windows"} <= cached
+
+
+def test_the_helper_does_not_outlive_its_process(tmp_path):
+    pid = _first_compile(tmp_path, 2, wait=False)["pid"]
+    assert pid is not None
+    with pytest.raises(ProcessLookupError):  # stopped and reaped at the interpreter's exit
+        os.kill(pid, 0)
+
+
+@pytest.mark.parametrize("threads, env", [(1, {}), (2, {"HOPMATCH_COMPILE_HELPER": "0"}),
+                                          (2, {"HOPMATCH_NUMBA_CACHE": "0"})])
+def test_no_helper_with_one_thread_the_switch_off_or_no_cache(tmp_path, threads, env):
+    assert _first_compile(tmp_path, threads, wait=False, **env)["pid"] is None

@@ -269,7 +269,7 @@ def demo(ctx, out):
 
     def body():
         status("loading the Numba kernels")
-        t_warm = hopmatch.warmup(warmup_processes())
+        t_warm = hopmatch.warmup()
         status("matching")
         t0 = time.perf_counter()
         result = match_stereo(scene.left, scene.right)
@@ -401,7 +401,7 @@ def match(ctx, left, right, out, fundamental_file, unrectified, fmt, no_draw, pl
 
     def body():
         status("loading the Numba kernels")
-        t_warm = hopmatch.warmup(warmup_processes())
+        t_warm = hopmatch.warmup()
         status("detecting and matching")
         t0 = time.perf_counter()
         # the parameters as keywords, not the instances: a pair that turns out far from
@@ -518,12 +518,6 @@ def detect(ctx, image, out, no_draw, **params):
 # --------------------------------------------------------------------------------------
 
 
-def warmup_processes() -> int:
-    """The processes the commands compile the kernels in (``hopmatch.warmup``): 2 when
-    hopmatch may use two or more cores (``hopmatch.getNumThreads()``), else 1."""
-    return min(2, hopmatch.getNumThreads())
-
-
 @cli.command()
 @click.option("--processes", type=click.IntRange(1, 4096), default=None, metavar="N",
               help="Python processes compiling at once (default: 2 on a machine with 2 or "
@@ -541,8 +535,6 @@ def warmup(ctx, processes):
 
     from .._config import CACHE
 
-    if processes is None:
-        processes = warmup_processes()
     status("loading or compiling the Numba kernels")
     seconds = hopmatch.warmup(processes)
     status.clear()

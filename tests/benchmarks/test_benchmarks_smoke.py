@@ -193,8 +193,8 @@ def test_first_call_smoke_has_the_readme_rows(run_all_page):
     assert_lines(
         out,
         r"\| cache \| import ms \| warmup\(\) ms \| first match_stereo after warmup ms \|",
-        table_row(r"cold \(compile\)", r"\d+", r"\d+", r"\d+"),
-        table_row(r"cold, warmup\(2\): two processes", r"\d+", r"\d+", r"\d+"),
+        table_row(r"cold \(compile\), warmup\(1\): one process", r"\d+", r"\d+", r"\d+"),
+        table_row(r"cold, warmup\(\): two processes on two cores", r"\d+", r"\d+", r"\d+"),
         table_row(r"warm \(load from disk\)", r"\d+", r"\d+", r"\d+"),
     )
 
