@@ -177,7 +177,7 @@ def main(argv=None) -> None:
                     numba_own))
     kernels.sort(key=lambda kv: -kv[1])
     total = sum(t for _, t in kernels)
-    print(f"\n### Compile time per kernel (cold warmup(): {len(ours)} of hopmatch's kernels "
+    print(f"\n### Compile time per kernel (cold warmup(1): {len(ours)} of hopmatch's kernels "
           f"compiled, {total:.1f} s of compilation in all; a kernel's own time, without "
           "the kernels it calls)\n")
     print("| kernel | s | share |")

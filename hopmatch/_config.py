@@ -32,11 +32,13 @@ from numba.core import event as numba_event
 
 FASTMATH: frozenset[str] = frozenset({"nsz", "arcp", "contract", "afn", "reassoc"})
 
-#: Seconds of the "about N s" in the first-run notice: what compiling every kernel
-#: (``hopmatch.warmup()`` with an empty cache) takes on a 2-core machine; see the section
-#: "The first run" of docs/performance.md for the measurements (36 s before the compile-time
-#: cuts of issue 17, which take a fifth off: ``benchmarks/compile_times.py``).
+#: Seconds of the "about N s" in the first-run notice: what compiling every kernel in one
+#: process takes on a 2-core machine (23-25 s on the development machine, 35 s on a slower
+#: one: ``hopmatch.warmup(1)`` in docs/performance.md, "The first run") ...
 COMPILE_SECONDS = 30
+#: ... and with the helper process compiling the kernels needed last (a cold first
+#: ``match_stereo`` 12.5-14 s there, ``warmup()`` 13.7-15.9 s).
+COMPILE_SECONDS_WITH_HELPER = 20
 
 _OFF = {"0", "false", "no", "off"}
 
@@ -52,12 +54,14 @@ def _cache_wanted() -> bool:
 CACHE: bool = _cache_wanted()
 
 
-def compile_notice_text() -> str:
-    """The line :class:`CompileNotice` writes (without the newline)."""
+def compile_notice_text(helper: bool = False) -> str:
+    """The line :class:`CompileNotice` writes (without the newline); ``helper``: a helper
+    process compiles part of the kernels (``hopmatch._warmup``)."""
     if CACHE:
         where = os.environ.get("NUMBA_CACHE_DIR") or "the package folder"
+        seconds = COMPILE_SECONDS_WITH_HELPER if helper else COMPILE_SECONDS
         return (f"hopmatch: compiling hopmatch's kernels for this CPU, first run only, about "
-                f"{COMPILE_SECONDS} s (cached in {where}; `hopmatch warmup` compiles them all "
+                f"{seconds} s (cached in {where}; `hopmatch warmup` compiles them all "
                 "ahead)")
     return (f"hopmatch: compiling hopmatch's kernels for this CPU, about {COMPILE_SECONDS} s "
             "(the on-disk cache is off, so every process compiles them; set NUMBA_CACHE_DIR "
@@ -93,13 +97,13 @@ class CompileNotice(numba_event.Listener):
             self.shown = True
         from ._warmup import start_background_helper
 
-        start_background_helper()  # a second process for the kernels needed last
+        helper = start_background_helper()  # a second process for the kernels needed last
         if os.environ.get("HOPMATCH_COMPILE_NOTICE", "1").strip().lower() in _OFF:
             return
         try:
             stream = sys.stderr
             clear = "\r\033[K" if stream.isatty() else ""  # over a CLI status line
-            stream.write(f"{clear}{compile_notice_text()}\n")
+            stream.write(f"{clear}{compile_notice_text(helper)}\n")
             stream.flush()
         except (AttributeError, OSError, ValueError):  # no usable stderr (pythonw, closed)
             pass

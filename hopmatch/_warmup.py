@@ -38,7 +38,7 @@ HELPER_TIMEOUT = 600.0
 HELPER_SWITCH = "HOPMATCH_COMPILE_HELPER"
 
 _OFF = {"0", "false", "no", "off"}
-_state = {"started": False, "helper": None}
+_state = {"started": False, "helper": None, "helping": False}
 _lock = threading.Lock()
 
 
@@ -125,22 +125,25 @@ def stop(helper) -> None:
         helper.wait()
 
 
-def start_background_helper() -> None:
+def start_background_helper() -> bool:
     """At the first compilation of one of hopmatch's kernels in this process: a helper for
     the steps after the network (once per process, when :func:`helper_wanted` with
-    ``hopmatch.getNumThreads()``); stopped at exit if still running."""
+    ``hopmatch.getNumThreads()``), stopped at exit if still running; whether a helper
+    (this one, or :func:`warmup`'s) is compiling for this process."""
     from ._threads import getNumThreads
 
     with _lock:
         if _state["started"]:
-            return
+            return _state["helping"]
         _state["started"] = True
     if not helper_wanted(getNumThreads()):
-        return
+        return False
     helper = start_helper("beyond network")
-    if helper is not None:
-        _state["helper"] = helper
-        atexit.register(stop, helper)
+    if helper is None:
+        return False
+    _state["helper"] = helper
+    atexit.register(stop, helper)
+    return True
 
 
 def warmup(processes: int | None = None) -> float:
@@ -162,6 +165,7 @@ def warmup(processes: int | None = None) -> float:
         _state["started"] = True  # no background helper besides this call's
     t0 = time.perf_counter()
     helper = start_helper("detection", "beyond network") if helper_wanted(processes) else None
+    _state["helping"] = helper is not None
     try:
         with event.install_recorder("numba:compile") as compiled:
             warm("network")
@@ -174,5 +178,6 @@ def warmup(processes: int | None = None) -> float:
                 pass
         warm("detection", "beyond network")
     finally:
+        _state["helping"] = False
         stop(helper)
     return time.perf_counter() - t0
