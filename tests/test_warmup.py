@@ -17,13 +17,14 @@ import hopmatch
 
 PACKAGE = Path(hopmatch.__file__).resolve().parent
 
+# argv: the kernels (JSON), the processes of hopmatch.warmup
 CHECK = textwrap.dedent("""
     import importlib, json, sys
     from numba.core import event
     compiled = []
 
 
-    class Seen(event.Listener):  # every specialisation Numba compiles
+    class Seen(event.Listener):  # every specialisation this process compiles
         def on_start(self, ev):
             f = ev.data["dispatcher"].py_func
             compiled.append(f"{f.__module__}.{f.__qualname__}")
@@ -34,7 +35,7 @@ CHECK = textwrap.dedent("""
 
     event.register("numba:compile", Seen())
     import hopmatch
-    hopmatch.warmup()
+    hopmatch.warmup(int(sys.argv[2]))
     out = {}
     for module, name in json.loads(sys.argv[1]):
         kernel = getattr(importlib.import_module(module), name)
@@ -65,7 +66,7 @@ def cold_warmup(tmp_path_factory):
     assert len(kernels) >= 15          # the scan itself works
     env = {**os.environ, "HOPMATCH_NUMBA_CACHE": "0",
            "NUMBA_CACHE_DIR": str(tmp_path_factory.mktemp("cache"))}
-    proc = subprocess.run([sys.executable, "-c", CHECK, json.dumps(kernels)],
+    proc = subprocess.run([sys.executable, "-c", CHECK, json.dumps(kernels), "1"],
                           capture_output=True, text=True, env=env, timeout=900)
     assert proc.returncode == 0, proc.stderr[-3000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -91,30 +92,6 @@ def test_warmup_compiles_each_kernel_once_and_none_of_numbas_costly_extras(cold_
     assert [name for name in compiled if name.startswith("numba.cpython.unicode.")] == []
 
 
-TWO_PROCESSES = textwrap.dedent("""
-    import importlib, json, sys
-    from numba.core import event
-    compiled = []
-
-
-    class Seen(event.Listener):  # every specialisation this process compiles
-        def on_start(self, ev):
-            f = ev.data["dispatcher"].py_func
-            compiled.append(f"{f.__module__}.{f.__qualname__}")
-
-        def on_end(self, ev):
-            pass
-
-
-    event.register("numba:compile", Seen())
-    import hopmatch
-    hopmatch.warmup(2)
-    out = {}
-    for module, name in json.loads(sys.argv[1]):
-        kernel = getattr(importlib.import_module(module), name)
-        out[f"{module}.{name}"] = len(kernel.signatures)
-    print(json.dumps({"signatures": out, "compiled": compiled}))
-""")
 
 
 def test_warmup_in_two_processes_loads_the_helpers_kernels_from_the_cache(tmp_path):
@@ -124,7 +101,7 @@ def test_warmup_in_two_processes_loads_the_helpers_kernels_from_the_cache(tmp_pa
     kernels = kernels_called_from_python()
     env = {**os.environ, "HOPMATCH_NUMBA_CACHE": "1", "NUMBA_CACHE_DIR": str(tmp_path),
            "HOPMATCH_COMPILE_NOTICE": "0"}
-    proc = subprocess.run([sys.executable, "-c", TWO_PROCESSES, json.dumps(kernels)],
+    proc = subprocess.run([sys.executable, "-c", CHECK, json.dumps(kernels), "2"],
                           capture_output=True, text=True, env=env, timeout=900)
     assert proc.returncode == 0, proc.stderr[-3000:]
     got = json.loads(proc.stdout.strip().splitlines()[-1])
