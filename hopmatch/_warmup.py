@@ -29,6 +29,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -107,9 +108,14 @@ def helper_wanted(processes: int) -> bool:
 
 def start_helper(*names: str):
     """A second interpreter compiling the :data:`PARTS` ``names`` into the on-disk cache (its
-    output discarded, its own notice and helper off), or None when it cannot start."""
+    output discarded, its own notice and helper off), or None when it cannot start. Where
+    its interpreter would not find this package (a source checkout put on ``sys.path`` by
+    hand), its folder is appended to the helper's path: Numba keeps its cache per source
+    file, so the helper must compile these files."""
+    root = str(Path(__file__).resolve().parent.parent)
     env = dict(os.environ, HOPMATCH_COMPILE_NOTICE="0", **{HELPER_SWITCH: "0"})
-    code = f"from hopmatch._warmup import warm; warm(*{list(names)!r})"
+    code = (f"import sys; r = {root!r}; r in sys.path or sys.path.append(r); "
+            f"from hopmatch._warmup import warm; warm(*{list(names)!r})")
     try:
         return subprocess.Popen([sys.executable, "-c", code], env=env,
                                 stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
