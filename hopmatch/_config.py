@@ -43,8 +43,14 @@ COMPILE_SECONDS_WITH_HELPER = 20
 _OFF = {"0", "false", "no", "off"}
 
 
+def switched_off(variable: str) -> bool:
+    """Whether the environment variable ``variable`` turns its switch off (``0``,
+    ``false``, ``no`` or ``off``, any case; unset means on)."""
+    return os.environ.get(variable, "1").strip().lower() in _OFF
+
+
 def _cache_wanted() -> bool:
-    if os.environ.get("HOPMATCH_NUMBA_CACHE", "1").strip().lower() in _OFF:
+    if switched_off("HOPMATCH_NUMBA_CACHE"):
         return False
     if os.environ.get("NUMBA_CACHE_DIR"):
         return True
@@ -98,7 +104,7 @@ class CompileNotice(numba_event.Listener):
         from ._warmup import start_background_helper
 
         helper = start_background_helper()  # a second process for the kernels needed last
-        if os.environ.get("HOPMATCH_COMPILE_NOTICE", "1").strip().lower() in _OFF:
+        if switched_off("HOPMATCH_COMPILE_NOTICE"):
             return
         try:
             stream = sys.stderr

@@ -38,7 +38,6 @@ HELPER_TIMEOUT = 600.0
 #: The environment variable that turns the helper off (``0``, ``false``, ``no``, ``off``).
 HELPER_SWITCH = "HOPMATCH_COMPILE_HELPER"
 
-_OFF = {"0", "false", "no", "off"}
 _state = {"started": False, "helper": None, "helping": False}
 _lock = threading.Lock()
 
@@ -100,10 +99,9 @@ def warm(*names: str) -> None:
 def helper_wanted(processes: int) -> bool:
     """Whether a helper may start: ``processes >= 2``, the on-disk cache on, and
     :data:`HELPER_SWITCH` not off."""
-    from ._config import CACHE
+    from ._config import CACHE, switched_off
 
-    return (processes >= 2 and CACHE and bool(sys.executable)
-            and os.environ.get(HELPER_SWITCH, "1").strip().lower() not in _OFF)
+    return processes >= 2 and CACHE and bool(sys.executable) and not switched_off(HELPER_SWITCH)
 
 
 def start_helper(*names: str):
