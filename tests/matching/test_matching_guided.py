@@ -660,8 +660,12 @@ def test_seeds_beyond_the_work_budget_are_the_weakest_left_out(monkeypatch):
     for fits in (len(all_q), len(all_q) + 7):  # every seed fits: the same seeds
         got, q = seeds(fits * span)
         np.testing.assert_array_equal(q, all_q)
-        for f in ("query_idx", "right_points", "fields"):
+        for f in ("query_idx", "right_points"):
             np.testing.assert_array_equal(getattr(got, f), getattr(every, f))
+        # the fields to a few units in the last place: once (OpenCV 5 environment of a
+        # clean-clone CI run, 2026-12-04) two calls on the same seeds differed by 1.4e-14
+        # in 37 of 381 fields; the cause is not found (session note, issue 21)
+        np.testing.assert_allclose(got.fields, every.fields, rtol=1e-12, atol=0.0)
     k = len(all_q) // 3
     for budget, n in ((k * span, k), (k * span + span - 1, k), (span - 1, 1), (0, 1)):
         got, q = seeds(budget)
