@@ -165,13 +165,15 @@ def test_stereo_calibration_rectified_matches_meet_the_dy_goal(stereo_calibratio
     (frac, n, pairs) = figure(res.stdout, r"^rectified \|dy\| <= 1 px: ([\d.]+)% of (\d+) "
                                           r"matches in the (\d+) pairs")
     assert frac >= 95.0 and pairs == 13 and n > 300
-    (paper,) = figure(res.stdout, r"^  without the vertical check of every pair "
-                                  r"\(vertical_check='multiple', .*\): ([\d.]+)% of")
+    (paper, n_paper) = figure(res.stdout, r"^  without the vertical check of every pair "
+                                          r"\(vertical_check='multiple', .*\): ([\d.]+)% of "
+                                          r"(\d+) matches")
     # section 4 as written keeps the off-row look-alikes the check of every pair removes:
-    # 87.2 % against 96.4 % (OpenCV 4.14), 90.4-91.2 % against 98.3 % (OpenCV 5.0) since
-    # the gain tolerance; 82 % against 97 % before it; 90.4 % against 95.2 % (OpenCV 4.14)
-    # with the seeds and the half-window test, which drop or add matches of both
-    assert paper <= frac - 3.0
+    # about twice as many matches with |dy| > 1 px (OpenCV 4.14: 247 against 125 with the
+    # seeds of 2026-12-02, 250 against 126 with the seeds of every unmatched point of
+    # 2026-12-04). Counted, not as fractions: the guided pass and the seeds add matches on
+    # the aligned rows to both (93.3 % against 96.7 % then, 94.7 % against 97.3 % now)
+    assert n_paper * (100.0 - paper) >= 1.6 * n * (100.0 - frac)
     assert res.returncode == 0, res.stderr
 
 

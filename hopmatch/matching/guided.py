@@ -13,7 +13,7 @@ each carried along the local plane's disparity gradient so that a slanted surfac
 as continuous, and the network's input bias). :func:`guided_rounds` repeats the pass,
 propagating from the guided matches too (later rounds with a larger margin, a field above
 3 and, for points with too few matched neighbours, a larger window), then seeds the
-regions no match reaches (:func:`seed_pass`: a search of the whole disparity range whose
+points still unmatched (:func:`seed_pass`: a search of the whole disparity range whose
 peaks are kept where they agree with one another) and propagates from those.
 """
 
@@ -86,14 +86,19 @@ GUIDED_LATER_FIELD = 3.0
 #: window ``(1 + GUIDED_GROWTH) ** r`` times as wide and high (0: the network's window in
 #: every round).
 GUIDED_GROWTH = 1.0
-#: Seeds: after the rounds, every left point still unmatched is searched along its whole
-#: row (the disparity range); a peak with at least this ZNCC...
-GUIDED_SEED_ZNCC = 0.85
-#: ...ahead by this margin of the best one at least two pixels away in the whole range...
-GUIDED_SEED_MARGIN = 0.25
+#: Seeds (docs/parameters.md, "Seeds wherever the rounds failed"; until 2026-12-04 0.85,
+#: 0.25 and 4): after the rounds, the left points still unmatched are searched along
+#: their whole row (the disparity range); a peak with at least this ZNCC...
+GUIDED_SEED_ZNCC = 0.8
+#: ...ahead by this margin of the best one :data:`GUIDED_SHOULDER` or more pixels away...
+GUIDED_SEED_MARGIN = 0.05
 #: ...is kept when its field, with the matches and the other such peaks as neighbours,
 #: exceeds this (eq. 12's bracket; the network's test is > 0).
-GUIDED_SEED_FIELD = 4.0
+GUIDED_SEED_FIELD = 12.0
+#: The seeds are every left point still unmatched (False: only those with fewer than
+#: :data:`GUIDED_MIN_SUPPORT` matched neighbours in the network's window, as until
+#: 2026-12-04; a point whose neighbours lie on another surface was then never seeded).
+GUIDED_SEED_ALL = True
 #: The seeds' search keeps the part of the range whose right windows lie in the image
 #: (near the image's left edge a point's whole range does not; False: such a point is not
 #: searched).
@@ -110,12 +115,10 @@ GUIDED_SEED_ROUNDS = 1
 GUIDED_SEED_NEAR = True
 #: Most ZNCC columns the seeds' search scores in all: each seed scores the columns of the
 #: whole range (``2 outer + 3``), and beyond this budget only the strongest seeds are
-#: searched (the left points come strongest first). A seed's search costs the width of the
-#: range, and the seeds grow with the points: with no bound the search grows as the cube
-#: of the image's width (on motorcycle upsampled to 2964 x 2000, 140,000 seeds over 395
-#: columns: about 1 s of 2.9 s, where the strongest seeds within the budget keep all but
-#: 29 of the seeds' 2,067 correct matches). No shared scene reaches it (aloe, the largest,
-#: scores 2.8 million columns): docs/parameters.md, "A budget for the seeds".
+#: searched (the left points come strongest first). Without it the search grows as the
+#: cube of the image's width (seeds and range both grow): on motorcycle upsampled to
+#: 2964 x 2000, about 1 s of 2.9 s. Of the shared scenes only aloe reaches it (4.14
+#: million columns; one match less): docs/parameters.md, "A budget for the seeds".
 GUIDED_SEED_WORK = 4_000_000
 #: Where the row search on the feature image G finds a peak too weak (low ZNCC, or short of
 #: the uniqueness margin) or fails the left-right check, the guided rounds search that
@@ -476,17 +479,18 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
               matched_similarity, *, min_zncc: float | None = None,
               margin: float | None = None, min_field: float | None = None,
               max_work: int | None = None, threads: int | None = None) -> GuidedMatches:
-    """Seeds where the matches do not reach: the left points not in ``query_idx`` with
-    fewer than ``GUIDED_MIN_SUPPORT`` of them in the network's window, each searched
+    """Seeds: the left points not in ``query_idx`` (:data:`GUIDED_SEED_ALL` False: those
+    with fewer than ``GUIDED_MIN_SUPPORT`` of them in the network's window), each searched
     along its whole row of the right image (the disparity range ``[min_disparity,
     max_disparity]`` of ``config``, resolved; with :data:`GUIDED_SEED_CLIP` the part of it
     whose right windows lie in the image), kept when the best ZNCC is at least
-    ``min_zncc``, a local maximum, ahead by ``margin`` of the best one at least two pixels
-    away in the range, searching back finds the left point again (:func:`row_search` with
-    the whole range as its search and radius), and its field exceeds ``min_field``, its
-    neighbours being the matches *and the other peaks found so* (each but itself): a peak
-    far from every match is kept only when enough peaks around it agree on one surface (the
-    local plane of those neighbours carries them, as in :func:`guided_pass`).
+    ``min_zncc``, a local maximum, ahead by ``margin`` of the best one at least
+    :data:`GUIDED_SHOULDER` pixels away in the range, searching back finds the left point
+    again (:func:`row_search` with the whole range as its search and radius), and its
+    field exceeds ``min_field``, its neighbours being the matches *and the other peaks
+    found so* (each but itself): a peak far from every match is kept only when enough
+    peaks around it agree on one surface (the local plane of those neighbours carries
+    them, as in :func:`guided_pass`).
     ``matched_similarity``: eq. 7's distance of each matched pair. ``max_work``: the most
     ZNCC columns scored in all (each seed scores ``2 outer + 3``, ``outer`` half the range
     plus one); beyond it only the first seeds in the order of ``pts_l`` (the detector's:
@@ -507,12 +511,12 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     matched = np.zeros(n_left, dtype=bool)
     matched[qi] = True
     q = np.flatnonzero(~matched).astype(np.int64)
-    # only where no match reaches: fewer than GUIDED_MIN_SUPPORT in the network's window
-    off, _ = query_neighbours(np.ascontiguousarray(pts_l[q]),
-                              np.ascontiguousarray(pts_l[qi], dtype=np.float32),
-                              np.float32(config.neighbour_width / 2),
-                              np.float32(config.neighbour_height / 2), threads=threads)
-    q = q[np.diff(off) < GUIDED_MIN_SUPPORT]
+    if not GUIDED_SEED_ALL:  # only where no match reaches: fewer than GUIDED_MIN_SUPPORT
+        off, _ = query_neighbours(np.ascontiguousarray(pts_l[q]),
+                                  np.ascontiguousarray(pts_l[qi], dtype=np.float32),
+                                  np.float32(config.neighbour_width / 2),
+                                  np.float32(config.neighbour_height / 2), threads=threads)
+        q = q[np.diff(off) < GUIDED_MIN_SUPPORT]
     if len(q) == 0:
         return empty_guided()
     outer = int(np.ceil(0.5 * (float(d_hi) - d_lo))) + 1

@@ -547,12 +547,15 @@ def test_rounds_after_the_seeds_search_only_where_something_changed(monkeypatch,
         np.testing.assert_array_equal(getattr(got[True], f), getattr(got[False], f))
 
 
-def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test():
-    """seed_pass: the seeds are the left points without a match and with fewer than 3
-    matches in the network's window whose row search over the whole disparity range (the
-    reference) finds a peak with a field above the seed minimum, the matches and the
-    other such peaks (all but itself) as neighbours; far from the few matches left, only
-    the peaks' agreement among themselves can carry them."""
+@pytest.mark.parametrize("seed_all", [True, False])
+def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test(monkeypatch, seed_all):
+    """seed_pass: the seeds are the left points without a match (``GUIDED_SEED_ALL``
+    False: and with fewer than 3 matches in the network's window) whose row search over
+    the whole disparity range (the reference) finds a peak with a field above the seed
+    minimum, the matches and the other such peaks (all but itself) as neighbours; far
+    from the few matches left, only the peaks' agreement among themselves can carry
+    them."""
+    monkeypatch.setattr(guided_module, "GUIDED_SEED_ALL", seed_all)
     pl, dl, gl, pr, dr, gr, net = _network_case(rows=64)  # fewer points for the reference
     config = net.config
     keep = pl[net.query_idx, 0] < 60  # the matches of the left strip only
@@ -575,7 +578,8 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test():
     near = ng.neighbours(pl[unmatched], pl[qi], config.neighbour_width / 2,
                          config.neighbour_height / 2)
     assert min(map(len, near)) < 3 <= max(map(len, near))  # both kinds of points
-    for i in unmatched[[len(nb) < 3 for nb in near]]:  # only where no match reaches
+    searched = unmatched if seed_all else unmatched[[len(nb) < 3 for nb in near]]
+    for i in searched:  # every unmatched point, or only where no match reaches
         x, y = float(pl[i, 0]), float(pl[i, 1])
         if np.floor(y) - rad < 0 or np.floor(y) - rad + size > h - 1:
             continue  # the kernel's OUTSIDE: the windows leave the image (the columns
