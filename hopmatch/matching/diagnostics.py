@@ -354,21 +354,24 @@ def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None) -> str:
 
 
 def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
-                        range_found: bool = True) -> bool:
+                        range_found: bool = True, kept: int | None = None) -> bool:
     """Warn (:class:`~hopmatch.errors.FewMatchesWarning`) when a pair of at least
     :data:`FEW_MATCHES_MIN_POINTS` keypoints a side kept fewer than
     ``max(FEW_MATCHES_FLOOR, FEW_MATCHES_FRACTION * keypoints)`` matches, saying the
-    likely cause (:func:`few_matches_cause`), and, when ``range_found`` is False, that the
-    disparity range could not be found and the whole fallback range was searched. Returns
-    whether it warned."""
+    likely cause (:func:`few_matches_cause`, from the network's ``result``), and, when
+    ``range_found`` is False, that the disparity range could not be found and the whole
+    fallback range was searched. ``kept``: the matches kept in the end, when passes after
+    the network added some (None: the network's). Returns whether it warned."""
     n = min(len(q_pts), len(t_pts))
-    kept = len(result.query_idx)
+    by_network = len(result.query_idx)
+    kept = by_network if kept is None else kept
     if n < FEW_MATCHES_MIN_POINTS or kept >= max(FEW_MATCHES_FLOOR, FEW_MATCHES_FRACTION * n):
         return False
     searched = "" if range_found else (
         f" (max_disparity=None: the coarse pass found no range, so the whole range "
         f"[{config.min_disparity:g}, {config.max_disparity:g}] was searched)")
-    warn(f"only {kept} matches for {len(q_pts)} left and {len(t_pts)} right keypoints"
-         f"{searched}: {few_matches_cause(result, qd, td, config, q_pts, t_pts)}",
+    network = "" if kept == by_network else f" ({by_network} from the network)"
+    warn(f"only {kept} matches{network} for {len(q_pts)} left and {len(t_pts)} right "
+         f"keypoints{searched}: {few_matches_cause(result, qd, td, config, q_pts, t_pts)}",
          FewMatchesWarning)
     return True

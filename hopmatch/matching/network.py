@@ -9,6 +9,7 @@ and call :func:`match_pair`, the same function after the points are checked.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -232,15 +233,18 @@ def run_hopfield_network(left, right, desc_l, desc_r, config: MatcherConfig, *, 
 
 def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: MatcherConfig, *,
                mask=None, fundamental=None, record_energy: bool = False,
-               descriptors_checked: bool = False,
-               raise_unrectified: bool = False) -> NetworkResult:
+               descriptors_checked: bool = False, raise_unrectified: bool = False,
+               few_matches_later: list | None = None) -> NetworkResult:
     """Match the descriptors of a checked pair: check the descriptors (unless
     ``descriptors_checked``: float32 or uint8 C-contiguous rows already) and the mask,
     resolve the disparity range, check every budget, warn about the geometry (SPEC-free
     checks of docs/robustness.md), run the network and return its result, whose ``config``
     holds the parameters used. ``fundamental``: None or a checked 3 x 3 float64 matrix.
     ``raise_unrectified``: raise :class:`~.diagnostics.LooksUnrectifiedError` where the
-    rectification check would warn."""
+    rectification check would warn. ``few_matches_later``: a list, for a caller whose
+    later passes add matches (:func:`~.stereo_match.match_detected`): when the network
+    kept some matches, the few-matches check is appended to it (a callable taking the
+    final number of matches) instead of being made here."""
     q_pts, t_pts = pair.query_points, pair.train_points
     if descriptors_checked:
         qd, td = query_descriptors, train_descriptors
@@ -285,8 +289,11 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     # also defeats the range search, and the diagnosis says more than the others would
     if not warn_if_unrectified(len(result.query_idx), q_pts, t_pts, qd, td, fundamental,
                                config, raise_unrectified, rows_share):
-        if not warn_if_few_matches(result, q_pts, t_pts, qd, td, config,
-                                   range_found=found.source != "fallback"):
+        check = functools.partial(warn_if_few_matches, result, q_pts, t_pts, qd, td, config,
+                                  range_found=found.source != "fallback")
+        if few_matches_later is not None and len(result.query_idx):
+            few_matches_later.append(lambda kept: check(kept=kept))
+        elif not check():
             warn_fallback(found, len(result.query_idx))
     return result
 

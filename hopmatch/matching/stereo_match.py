@@ -359,9 +359,10 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     check_coordinate_range(pts_l, "left")
     check_coordinate_range(pts_r, "right")
     pair = PairInfo(pts_l, pts_r, size_l, size_r)
+    few_matches_check = []  # made on the final matches, with the guided pass's
     net = match_pair(pair, desc_l, desc_r, config, fundamental=fundamental,
                      record_energy=record_energy, descriptors_checked=True,
-                     raise_unrectified=raise_unrectified)
+                     raise_unrectified=raise_unrectified, few_matches_later=few_matches_check)
     t3 = time.perf_counter()
     timings["match"] = t3 - t2
     result = StereoMatchResult(
@@ -373,6 +374,8 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     if fundamental is None and shape_l == shape_r and len(net.query_idx):
         result = beyond_network(result, (desc_l, desc_r), (g_l, g_r), (gray_l, gray_r),
                                 net.config, threads=threads)
+    for check in few_matches_check:
+        check(len(result.query_idx))
     return result
 
 
@@ -558,9 +561,10 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
             f"match_stereo got rectified=False and max_disparity={config.max_disparity:g}: "
             "the disparity range of an unrectified pair is found with its geometry (in the "
             "frame the right image is aligned to); leave max_disparity=None")
+    few_matches_check = []  # made on the final matches (match_detected)
     pts_l, resp_l, pts_r, resp_r, net, geometry, timings, frame = match_unrectified(
         left, right, detector, config, mask_left=mask_left, mask_right=mask_right,
-        record_energy=record_energy)
+        record_energy=record_energy, few_matches_later=few_matches_check)
     if net is None:
         warn(f"match_stereo(rectified=False) found no epipolar geometry, so no matches: "
              f"{geometry.reason}", GeometryWarning)
@@ -571,9 +575,11 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
         network=net, keypoint_size=float(detector.getWindowSize()), timings=timings,
         match_timings={"network": timings.get("match", 0.0), "guided": 0.0, "refine": 0.0},
         fundamental_matrix=geometry.fundamental, geometry=geometry)
-    if frame is None or frame.mode != "aligned" or not len(net.query_idx):
-        return result
-    return unrectified_beyond_network(result, frame)
+    if frame is not None and frame.mode == "aligned" and len(net.query_idx):
+        result = unrectified_beyond_network(result, frame)
+    for check in few_matches_check:
+        check(len(result.query_idx))
+    return result
 
 
 def unrectified_beyond_network(result: StereoMatchResult, frame) -> StereoMatchResult:

@@ -327,7 +327,7 @@ class SearchFrame:
 
 
 def match_unrectified(left, right, detector, config, *, mask_left=None, mask_right=None,
-                      record_energy=False):
+                      record_energy=False, few_matches_later: list | None = None):
     """The pipeline of this module's docstring.
 
     Returns ``(pts_l, resp_l, pts_r, resp_r, network, geometry, timings, frame)``: points
@@ -335,7 +335,8 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     (or None when no geometry was accepted: ``geometry.reason`` says why), the
     :class:`~hopmatch.matching.geometry.EpipolarGeometry` used, the seconds spent in
     ``geometry``, ``align``, ``detect_left``, ``detect_right`` and ``match``, and the
-    :class:`SearchFrame` of the network (None without geometry).
+    :class:`SearchFrame` of the network (None without geometry). ``few_matches_later``:
+    as :func:`~hopmatch.matching.network.match_pair`'s, for the network of the last pass.
     """
     t0 = time.perf_counter()
     limit = detector.getMaxPixels()
@@ -367,14 +368,18 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
         warped, valid, name="right", keep_gray=True)
     t4 = time.perf_counter()
     pts_r = transform_points(pts_a, np.linalg.inv(to_aligned))
+    pending = None
     for round_ in range(PASSES):
+        pending = None if few_matches_later is None else []  # the last network's only
         net, mode, shift = search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size,
-                                  config, record_energy)
+                                  config, record_energy, few_matches_later=pending)
         if round_ + 1 < PASSES or REFITS:
             refit = refit_fundamental(geometry, pts_l[net.query_idx], pts_r[net.train_idx])
             if refit is geometry:
                 break
             geometry = refit
+    if pending:
+        few_matches_later.extend(pending)
     timings.update(align=t2 - t1, detect_left=t3 - t2, detect_right=t4 - t3,
                    match=time.perf_counter() - t4)
     geometry = dataclasses.replace(geometry, search=mode)
@@ -384,13 +389,15 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     return pts_l, resp_l, pts_r, resp_r, net, geometry, timings, frame
 
 
-def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, record_energy):
+def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, record_energy,
+           few_matches_later: list | None = None):
     """``(network result, mode, shift)``: the network on the left points and the aligned
     right points ``pts_a``, in the frame of :func:`search_frame`, over the range of
     :func:`network_range` (or of the inliers). In ``'aligned'`` mode the right points are
     moved by a whole number of pixels, ``shift`` (the range is moved by what rounding
     left), so that the images can be moved with them (:class:`SearchFrame`); ``shift``
-    is None in the other modes."""
+    is None in the other modes. ``few_matches_later``: passed to
+    :func:`~hopmatch.matching.network.match_pair`."""
     H1, H2, (lo, hi), mode = search_frame(geometry, to_aligned, size)
     if H1 is None:  # the epipolar band of F, in the aligned frame shifted by H2
         F = np.linalg.inv(H2).T @ np.linalg.inv(to_aligned).T @ geometry.fundamental
@@ -417,7 +424,7 @@ def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, rec
         cfg = dataclasses.replace(config, min_disparity=lo, max_disparity=hi)
     net = match_pair(PairInfo(q_l, q_r, size, size), desc_l, desc_r, cfg,
                      fundamental=fundamental, record_energy=record_energy,
-                     descriptors_checked=True)
+                     descriptors_checked=True, few_matches_later=few_matches_later)
     return net, mode, whole
 
 

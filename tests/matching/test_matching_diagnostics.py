@@ -268,3 +268,39 @@ def _features(left, right):
     pl, _, dl, _ = det.detect_and_describe(left)
     pr, _, dr, _ = det.detect_and_describe(right)
     return pl, pr, dl, dr
+
+
+@pytest.mark.parametrize("rectified", [True, False])
+def test_few_matches_are_counted_on_what_match_stereo_returns(motorcycle, monkeypatch,
+                                                             rectified):
+    """match_stereo judges "few matches" on the matches it returns, the guided pass's
+    included, not on the network's share of them: with a floor between the two counts
+    it does not warn (it did before 2026-12-04, when the network's check warned "only 28
+    matches" on chessboard pairs that ended with 340), with a floor above both it warns
+    once and gives both counts. The same for an unrectified pair (its aligned rows)."""
+    import cv2
+
+    from hopmatch.errors import FewMatchesWarning
+    from hopmatch.matching import diagnostics
+
+    left, right = (cv2.cvtColor(img, cv2.COLOR_RGB2GRAY) for img in motorcycle[:2])
+    if not rectified:
+        h, w = left.shape
+        right = cv2.warpAffine(right, cv2.getRotationMatrix2D((w / 2, h / 2), 2, 1.0),
+                               (w, h))
+    res, caught = _caught(lambda: hopmatch.match_stereo(left, right, rectified=rectified))
+    assert not [w for w in caught if issubclass(w.category, FewMatchesWarning)]
+    n_net, n_all = len(res.network.query_idx), len(res.query_idx)
+    assert 0 < n_net < n_all
+    between, above = (n_net + n_all) // 2, n_all + 1
+    for floor, warned in ((between, False), (above, True)):
+        monkeypatch.setattr(diagnostics, "FEW_MATCHES_FLOOR", floor)
+        again, caught = _caught(lambda: hopmatch.match_stereo(left, right,
+                                                               rectified=rectified))
+        assert len(again.query_idx) == n_all
+        few = [str(w.message) for w in caught if issubclass(w.category, FewMatchesWarning)]
+        if warned:
+            assert len(few) == 1 and few[0].startswith(
+                f"only {n_all} matches ({n_net} from the network) for "), few
+        else:
+            assert few == []
