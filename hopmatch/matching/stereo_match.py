@@ -359,7 +359,7 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     check_coordinate_range(pts_l, "left")
     check_coordinate_range(pts_r, "right")
     pair = PairInfo(pts_l, pts_r, size_l, size_r)
-    few_matches_check = []  # made on the final matches, with the guided pass's
+    few_matches_check = []  # the few-matches check, made on the final matches below
     net = match_pair(pair, desc_l, desc_r, config, fundamental=fundamental,
                      record_energy=record_energy, descriptors_checked=True,
                      raise_unrectified=raise_unrectified, few_matches_later=few_matches_check)
@@ -561,7 +561,7 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
             f"match_stereo got rectified=False and max_disparity={config.max_disparity:g}: "
             "the disparity range of an unrectified pair is found with its geometry (in the "
             "frame the right image is aligned to); leave max_disparity=None")
-    few_matches_check = []  # made on the final matches (match_detected)
+    few_matches_check = []  # the few-matches check, made on the final matches below
     pts_l, resp_l, pts_r, resp_r, net, geometry, timings, frame = match_unrectified(
         left, right, detector, config, mask_left=mask_left, mask_right=mask_right,
         record_energy=record_energy, few_matches_later=few_matches_check)
