@@ -243,8 +243,8 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     ``raise_unrectified``: raise :class:`~.diagnostics.LooksUnrectifiedError` where the
     rectification check would warn. ``few_matches_later``: a list, for a caller whose
     later passes add matches (:func:`~.stereo_match.match_detected`): when the network
-    kept some matches, the few-matches check is appended to it (a callable taking the
-    final number of matches) instead of being made here."""
+    kept some matches, the few-matches check is appended to it (a callable, to be called
+    with ``kept=`` the final number of matches) instead of being made here."""
     q_pts, t_pts = pair.query_points, pair.train_points
     if descriptors_checked:
         qd, td = query_descriptors, train_descriptors
@@ -292,7 +292,7 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
         check = functools.partial(warn_if_few_matches, result, q_pts, t_pts, qd, td, config,
                                   range_found=found.source != "fallback")
         if few_matches_later is not None and len(result.query_idx):
-            few_matches_later.append(lambda kept: check(kept=kept))
+            few_matches_later.append(check)
         elif not check():
             warn_fallback(found, len(result.query_idx))
     return result

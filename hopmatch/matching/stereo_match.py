@@ -375,7 +375,7 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
         result = beyond_network(result, (desc_l, desc_r), (g_l, g_r), (gray_l, gray_r),
                                 net.config, threads=threads)
     for check in few_matches_check:
-        check(len(result.query_idx))
+        check(kept=len(result.query_idx))
     return result
 
 
@@ -578,7 +578,7 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
     if frame is not None and frame.mode == "aligned" and len(net.query_idx):
         result = unrectified_beyond_network(result, frame)
     for check in few_matches_check:
-        check(len(result.query_idx))
+        check(kept=len(result.query_idx))
     return result
 
 

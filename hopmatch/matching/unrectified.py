@@ -368,7 +368,6 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
         warped, valid, name="right", keep_gray=True)
     t4 = time.perf_counter()
     pts_r = transform_points(pts_a, np.linalg.inv(to_aligned))
-    pending = None
     for round_ in range(PASSES):
         pending = None if few_matches_later is None else []  # the last network's only
         net, mode, shift = search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size,
