@@ -43,6 +43,7 @@ EXTREME = st.one_of(st.sampled_from(EDGES), st.integers(-(2**70), 2**70),
 
 RNG = np.random.default_rng(0)
 IMG = cv2.GaussianBlur((RNG.random((48, 64)) * 255).astype(np.uint8), (3, 3), 0)
+SHIFTED = np.roll(IMG, -3, axis=1)  # a right view: disparity 3
 PTS = RNG.uniform(5, 40, (40, 2)).astype(np.float32)
 DESC = RNG.normal(size=(40, 25)).astype(np.float32)
 
@@ -122,6 +123,12 @@ FUNCTIONS = {
     "knnMatch.k": lambda v: _matcher().knnMatch(DESC, DESC, v),
     "radiusMatch.maxDistance": lambda v: _matcher().radiusMatch(DESC, DESC, v),
     "match_stereo.max_pixels": lambda v: hopmatch.match_stereo(IMG, IMG, max_pixels=v),
+    # the seeds search the whole range: 1e300 overflowed its column count, 1e12 its memory
+    "match_stereo.max_disparity": lambda v: hopmatch.match_stereo(IMG, SHIFTED,
+                                                                  max_disparity=v),
+    "match_stereo.min_disparity": lambda v: hopmatch.match_stereo(IMG, SHIFTED,
+                                                                  min_disparity=v,
+                                                                  max_disparity=1e12),
     "epipolar_distances.F": lambda v: stereo.epipolar_distances(
         PTS, PTS, [[0, 0, 0], [0, 0, -1], [0, 1, v]]),
     "epipolar_distance_matrix.max_pairs": lambda v: stereo.epipolar_distance_matrix(

@@ -61,8 +61,8 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
     ``gate`` on their contrasts alone (with the same ``gain_tolerance``); the budget still
     counts them.
     """
-    band = (np.float32(max(min_disparity, -BAND_LIMIT)), np.float32(min(max_disparity, BAND_LIMIT)),
-            np.float32(min(max_vertical, BAND_LIMIT)))
+    band = tuple(np.float32(min(max(v, -BAND_LIMIT), BAND_LIMIT))
+                 for v in (min_disparity, max_disparity, max_vertical))
     budget = np.int64(min(max_neurons, 2**62))
     if fundamental is None:
         index = right_band_index(right)

@@ -481,9 +481,9 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
               max_work: int | None = None, threads: int | None = None) -> GuidedMatches:
     """Seeds: the left points not in ``query_idx`` (:data:`GUIDED_SEED_ALL` False: those
     with fewer than ``GUIDED_MIN_SUPPORT`` of them in the network's window), each searched
-    along its whole row of the right image (the disparity range ``[min_disparity,
-    max_disparity]`` of ``config``, resolved; with :data:`GUIDED_SEED_CLIP` the part of it
-    whose right windows lie in the image), kept when the best ZNCC is at least
+    along its whole row of the right image (``config``'s resolved disparity range within
+    ``[1 - W_r, W_l - 1]``; with :data:`GUIDED_SEED_CLIP` the part of it whose right
+    windows lie in the image), kept when the best ZNCC is at least
     ``min_zncc``, a local maximum, ahead by ``margin`` of the best one at least
     :data:`GUIDED_SHOULDER` pixels away in the range, searching back finds the left point
     again (:func:`row_search` with the whole range as its search and radius), and its
@@ -501,14 +501,14 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     margin = GUIDED_SEED_MARGIN if margin is None else margin
     min_field = GUIDED_SEED_FIELD if min_field is None else min_field
     max_work = GUIDED_SEED_WORK if max_work is None else max_work
-    d_hi = config.max_disparity
-    n_left = len(pts_l)
-    if d_hi is None or n_left == 0 or desc_l.dtype == np.uint8:
+    if config.max_disparity is None or len(pts_l) == 0 or desc_l.dtype == np.uint8:
         return empty_guided()
-    d_lo = float(config.min_disparity or 0.0)
+    # the disparities of right points inside the image: a huge range costs no more
+    d_lo = max(float(config.min_disparity or 0.0), 1.0 - g_r.shape[1])
+    d_hi = min(float(config.max_disparity), g_l.shape[1] - 1.0)
     qi = np.ascontiguousarray(query_idx, dtype=np.int32)
     ti = np.ascontiguousarray(train_idx, dtype=np.int32)
-    matched = np.zeros(n_left, dtype=bool)
+    matched = np.zeros(len(pts_l), dtype=bool)
     matched[qi] = True
     q = np.flatnonzero(~matched).astype(np.int64)
     if not GUIDED_SEED_ALL:  # only where no match reaches: fewer than GUIDED_MIN_SUPPORT
@@ -517,11 +517,11 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
                                   np.float32(config.neighbour_width / 2),
                                   np.float32(config.neighbour_height / 2), threads=threads)
         q = q[np.diff(off) < GUIDED_MIN_SUPPORT]
-    if len(q) == 0:
+    if len(q) == 0 or d_lo > d_hi:
         return empty_guided()
-    outer = int(np.ceil(0.5 * (float(d_hi) - d_lo))) + 1
+    outer = int(np.ceil(0.5 * (d_hi - d_lo))) + 1
     q = q[:max(1, int(max_work) // (2 * outer + 3))]  # the strongest within the budget
-    centre = np.ascontiguousarray(pts_l[q, 0].astype(np.float64) - 0.5 * (d_lo + float(d_hi)))
+    centre = np.ascontiguousarray(pts_l[q, 0].astype(np.float64) - 0.5 * (d_lo + d_hi))
     yoff = np.ascontiguousarray(np.asarray(y_offset, dtype=np.float64)[q])
     status, best, second, xr, sim = map_chunks(
         lambda qs, cs, ys: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys, float(outer),

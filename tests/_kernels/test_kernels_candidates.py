@@ -4,6 +4,7 @@ window) against the brute-force pairs of ``tests/naive.py``."""
 from __future__ import annotations
 
 import os
+import warnings
 
 import naive
 import numpy as np
@@ -246,3 +247,8 @@ class TestCountStopsAtTheBudget:
             for lo, hi in ((-200.0, 200.0), (-1e300, 1e300)):
                 got = candidate_pairs(left, right, lo, hi, vmax, 10**6)
                 assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+        # a range wholly beyond the clamp, either side: no pair, and no float32 overflow
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            for lo, hi in ((1e300, 1e300), (-1e300, -1e299)):
+                assert len(candidate_pairs(left, right, lo, hi, 1e300, 10**6)[0]) == 0
