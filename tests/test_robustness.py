@@ -16,6 +16,7 @@ from hopmatch import DericheMoravecDetector, HopfieldMatcher, hopfield_match, ma
 from hopmatch.errors import (
     BudgetExceededError,
     DisparityRangeWarning,
+    FewMatchesWarning,
     HopmatchError,
     HopmatchWarning,
     ImageSizeWarning,
@@ -323,7 +324,11 @@ def test_pickle_round_trip_and_foreign_pickle():
 def test_blank_images_give_empty_results(image):
     kps, desc = DET.detectAndCompute(image, None)
     assert kps == () and desc.shape == (0, DET.descriptorSize()) and desc.dtype == np.float32
-    res = match_stereo(image, image)
+    # match_stereo says why nothing came (cv2's detectAndCompute, above, stays silent as
+    # cv2's detectors do)
+    with pytest.warns(FewMatchesWarning, match="the left image has no keypoint: it is "
+                      "(flat|.* too small for the detector's 9 x 9 windows).*; the right"):
+        res = match_stereo(image, image)
     assert res.matches == () and res.disparities.shape == (0,)
     assert res.points_left.shape == (0, 2) and res.points_left.dtype == np.float32
 
@@ -331,8 +336,19 @@ def test_blank_images_give_empty_results(image):
 def test_all_zero_mask_gives_empty_result():
     kps, desc = DET.detectAndCompute(IMG, np.zeros(IMG.shape, np.uint8))
     assert kps == () and desc.shape == (0, DET.descriptorSize())
-    res = match_stereo(IMG, IMG, mask_left=np.zeros(IMG.shape, bool))
+    with pytest.warns(FewMatchesWarning) as caught:
+        res = match_stereo(IMG, IMG, mask_left=np.zeros(IMG.shape, bool))
     assert res.matches == () and res.query_idx.dtype == np.int32
+    said = [str(w.message) for w in caught if w.category is FewMatchesWarning]
+    assert said == ["no matches: the left image has no keypoint: its mask excludes every "
+                    "pixel"]
+
+
+def test_no_keypoints_from_texture_names_the_threshold():
+    with pytest.warns(FewMatchesWarning, match="left image has no keypoint: its texture is "
+                      "too faint for the detector .lower its `threshold`"):
+        res = match_stereo(IMG, IMG, threshold=1e30)
+    assert res.matches == ()
 
 
 def test_zero_keypoints_give_empty_matches():

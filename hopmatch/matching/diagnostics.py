@@ -375,3 +375,33 @@ def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
          f"keypoints{searched}: {few_matches_cause(result, qd, td, config, q_pts, t_pts)}",
          FewMatchesWarning)
     return True
+
+
+def no_keypoints_cause(gray: np.ndarray, mask, window: int) -> str:
+    """Why the detector found no point on the grey image ``gray`` (with ``mask``, None or
+    the checked boolean mask, and descriptor windows of ``window`` a side): too small for
+    the windows, masked out, one grey level, or no texture the detector answers to."""
+    h, w = gray.shape[:2]
+    if min(h, w) < window + 2:
+        return (f"it is {w} x {h} px, too small for the detector's {window} x {window} "
+                "windows (and their margin)")
+    if mask is not None and not np.any(mask):
+        return "its mask excludes every pixel"
+    if float(np.min(gray)) == float(np.max(gray)):
+        return f"it is flat (every pixel {float(np.min(gray)):g})"
+    return ("its texture is too faint for the detector (lower its `threshold`, or check "
+            "that the image is not blank or out of focus)")
+
+
+def warn_if_no_keypoints(sides) -> bool:
+    """Warn (:class:`~hopmatch.errors.FewMatchesWarning`) when an image of a pair has no
+    keypoint, so no match can be found. ``sides``: ``(name, points, grey, mask,
+    window)`` for each image (:func:`no_keypoints_cause`'s arguments). Returns whether it
+    warned."""
+    empty = [(name, no_keypoints_cause(gray, mask, window))
+             for name, points, gray, mask, window in sides if len(points) == 0]
+    if not empty:
+        return False
+    warn("no matches: " + "; ".join(f"the {name} image has no keypoint: {cause}"
+                                     for name, cause in empty), FewMatchesWarning)
+    return True

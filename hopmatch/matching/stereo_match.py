@@ -22,7 +22,7 @@ from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
 from ..feature.gradient import normalised_intensity
 from . import guided, halves
 from .confidence import confidence_distances, fields_of_distances
-from .diagnostics import LooksUnrectifiedError
+from .diagnostics import LooksUnrectifiedError, warn_if_no_keypoints
 from .geometry import EpipolarGeometry, GeometryWarning, transform_points
 from .guided import GreyFallback, GuidedMatches, guided_pass, guided_rounds
 from .matcher import HopfieldMatcher, dmatches
@@ -308,6 +308,12 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         (found_l, t_l), (found_r, t_r) = run_both(lambda: detect(left, mask_left, "left"),
                                                   lambda: detect(right, mask_right, "right"),
                                                   threads)
+        if fundamental is not None or found_l[4].shape[0] == found_r[4].shape[0]:
+            # (a pair of two heights is refused below: no warning before the error)
+            window = detector.getDescriptorSize()
+            warn_if_no_keypoints([(side, found[0], found[4], mask, window) for side, found,
+                                  mask in (("left", found_l, mask_left),
+                                           ("right", found_r, mask_right))])
         try:
             return match_detected(found_l, found_r, config,
                                   keypoint_size=float(detector.getWindowSize()),
