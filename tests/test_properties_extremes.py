@@ -50,11 +50,14 @@ DESC = RNG.normal(size=(40, 25)).astype(np.float32)
 
 def _outcome(call, name=None):
     """Run ``call``: its result, or None after a hopmatch error (asserting that it is a
-    ValueError/TypeError naming ``name`` when given, raised within a second)."""
+    ValueError/TypeError naming ``name`` when given, raised within a second). NumPy's
+    RuntimeWarnings (an overflow in a float32 cast...) are errors: a value at the edge of
+    its range gets a result or a hopmatch error, not NumPy's noise."""
     t0 = time.perf_counter()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", hopmatch.errors.HopmatchWarning)
+            warnings.simplefilter("error", RuntimeWarning)
             return call()
     except HopmatchError as exc:
         assert isinstance(exc, (ValueError, TypeError)), type(exc)

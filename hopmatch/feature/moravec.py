@@ -228,7 +228,9 @@ def select_points(v, nms_size, threshold, relative_threshold, margin, max_featur
         thr = max(threshold, relative_threshold * float(v.max()))
     kernel = np.ones((2 * radius + 1, 2 * radius + 1), np.uint8)
     vmax = cv2.dilate(v, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=-np.inf)
-    yx, pts, resp = _k.strict_maxima(v, vmax, radius, margin, np.float32(thr), bool(subpixel))
+    with np.errstate(over="ignore"):  # a threshold beyond float32's range: inf, no point
+        thr32 = np.float32(thr)
+    yx, pts, resp = _k.strict_maxima(v, vmax, radius, margin, thr32, bool(subpixel))
     del vmax
     if mask is not None and len(yx):
         keep = mask[yx[:, 0], yx[:, 1]]

@@ -26,7 +26,7 @@ import numpy as np
 from .._kernels import guided as _k
 from .._threads import map_chunks, row_order
 from ..feature.descriptor import gradient_windows
-from .neighbourhood import nearest_of, neighbour_planes, query_neighbours
+from .neighbourhood import half_sides, nearest_of, neighbour_planes, query_neighbours
 from .similarity import EPS, match_distance, similarity_distance
 
 #: Largest distance (px) between the peak of the row search and the predicted disparity.
@@ -384,14 +384,14 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     if new_from is not None:  # first only where the new matches can reach
         near_off, _ = query_neighbours(
             np.ascontiguousarray(pts_l[queries]), m_left[new_from:],
-            np.float32(max(window, 1.0) * config.neighbour_width / 2),
-            np.float32(max(window, 1.0) * config.neighbour_height / 2), threads=threads)
+            *half_sides(config.neighbour_width, config.neighbour_height, max(window, 1.0)),
+            threads=threads)
         queries = queries[np.diff(near_off) > 0]
         if len(queries) == 0:
             return GuidedSearch.none()
     qpts = np.ascontiguousarray(pts_l[queries])
-    off, idx = query_neighbours(qpts, m_left, np.float32(config.neighbour_width / 2),
-                                np.float32(config.neighbour_height / 2), threads=threads)
+    sides = half_sides(config.neighbour_width, config.neighbour_height)
+    off, idx = query_neighbours(qpts, m_left, *sides, threads=threads)
     scale = 1.0
     while scale < window:  # the smallest of the windows 2, 4... (at most ``window``)
         scale = min(2.0 * scale, window)
@@ -399,8 +399,8 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
         if len(need) == 0:
             break
         off_n, idx_n = query_neighbours(np.ascontiguousarray(qpts[need]), m_left,
-                                        np.float32(scale * config.neighbour_width / 2),
-                                        np.float32(scale * config.neighbour_height / 2),
+                                        *half_sides(config.neighbour_width,
+                                                    config.neighbour_height, scale),
                                         threads=threads)
         cnt = np.zeros(len(queries), dtype=np.int64)
         cnt[need] = np.diff(off_n)
@@ -506,6 +506,7 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     # the disparities of right points inside the image: a huge range costs no more
     d_lo = max(float(config.min_disparity or 0.0), 1.0 - g_r.shape[1])
     d_hi = min(float(config.max_disparity), g_l.shape[1] - 1.0)
+    sides = half_sides(config.neighbour_width, config.neighbour_height)
     qi = np.ascontiguousarray(query_idx, dtype=np.int32)
     ti = np.ascontiguousarray(train_idx, dtype=np.int32)
     matched = np.zeros(len(pts_l), dtype=bool)
@@ -514,8 +515,7 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     if not GUIDED_SEED_ALL:  # only where no match reaches: fewer than GUIDED_MIN_SUPPORT
         off, _ = query_neighbours(np.ascontiguousarray(pts_l[q]),
                                   np.ascontiguousarray(pts_l[qi], dtype=np.float32),
-                                  np.float32(config.neighbour_width / 2),
-                                  np.float32(config.neighbour_height / 2), threads=threads)
+                                  *sides, threads=threads)
         q = q[np.diff(off) < GUIDED_MIN_SUPPORT]
     if len(q) == 0 or d_lo > d_hi:
         return empty_guided()
@@ -540,8 +540,7 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
                                    dtype=np.float32)
     m_sim = np.concatenate((np.asarray(matched_similarity, dtype=np.float64), sim))
     qpts = np.ascontiguousarray(pts_l[q])
-    off, idx = query_neighbours(qpts, m_left, np.float32(config.neighbour_width / 2),
-                                np.float32(config.neighbour_height / 2), threads=threads)
+    off, idx = query_neighbours(qpts, m_left, *sides, threads=threads)
     owner = np.repeat(np.arange(len(q)), np.diff(off))
     others = idx != n_m + owner  # each peak but itself
     off = np.zeros(len(q) + 1, dtype=np.int64)

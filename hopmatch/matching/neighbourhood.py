@@ -14,6 +14,16 @@ import numpy as np
 
 from .._kernels import guided as _kg
 from .._threads import map_ranges
+from .candidates import BAND_LIMIT
+
+
+def half_sides(width: float, height: float, scale: float = 1.0):
+    """float32 ``(scale * width / 2, scale * height / 2)``: the half-sides of a neighbourhood
+    window as the neighbour kernels take them, each at most :data:`~.candidates.BAND_LIMIT`
+    (coordinates lie within +-2**20 px, so a larger half-side holds the same neighbours;
+    ``neighbour_width=1e39`` is inf in float32)."""
+    return (np.float32(min(scale * width / 2, BAND_LIMIT)),
+            np.float32(min(scale * height / 2, BAND_LIMIT)))
 
 
 def query_neighbours(queries, matched, half_w, half_h, threads: int | None = None):

@@ -42,6 +42,7 @@ from .candidates import (  # noqa: E402, F401
 from .diagnostics import warn_geometry, warn_if_few_matches, warn_if_unrectified
 from .disambiguate import disambiguate, vertically_consistent
 from .disparity_range import resolve_disparity_range, run_in_range, search_range, warn_fallback
+from .neighbourhood import half_sides
 from .params import MatcherConfig, check_disparity_order, matcher_config
 from .similarity import (
     WINDOW_MEAN_TOL,  # noqa: E402, F401
@@ -138,7 +139,7 @@ def neighbours_with_neurons(left, start, width, height):
     """CSR neighbour lists (SPEC section 4's ``width x height`` window) among the left points
     that have neurons; points without neurons neither have nor are neighbours, since no
     interaction can involve them."""
-    return _kn.neighbour_lists_among(left, start, np.float32(width / 2), np.float32(height / 2))
+    return _kn.neighbour_lists_among(left, start, *half_sides(width, height))
 
 
 def _starts(ni: np.ndarray, n_left: int) -> np.ndarray:

@@ -113,7 +113,7 @@ def depth_from_disparity(disparity, *, Q=None, focal=None, baseline=None, doffs=
     depth : float or float32 ndarray
         Same shape as ``disparity`` (a float for a scalar). NaN where the disparity is NaN
         or puts the point at or beyond infinity (``d + doffs <= 0``; with ``Q``,
-        ``Q[3, 2] * d + Q[3, 3] <= 0``).
+        ``Q[3, 2] * d + Q[3, 3] <= 0``); inf where the depth exceeds float32's range.
 
     Examples
     --------
@@ -145,9 +145,9 @@ def depth_from_disparity(disparity, *, Q=None, focal=None, baseline=None, doffs=
         b = as_real(baseline, "baseline", lo=0.0, lo_open=True)
         off = as_real(doffs, "doffs")
         num, den = f * b, d + off
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         z = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
-    z = z.astype(np.float32)
+        z = z.astype(np.float32)  # depths beyond float32's range are inf, said as such
     return float(z) if scalar else z
 
 

@@ -77,7 +77,7 @@ def epipolar_distances(left_pts, right_pts, F, *, reduce: str = "mean") -> np.nd
     Returns
     -------
     distances : (N,) float32 ndarray
-        In pixels.
+        In pixels (inf beyond float32's range).
 
     Examples
     --------
@@ -96,7 +96,8 @@ def epipolar_distances(left_pts, right_pts, F, *, reduce: str = "mean") -> np.nd
     out = op(dr, dl)
     if reduce == "mean":
         out = out / 2
-    return np.ascontiguousarray(out, dtype=np.float32)
+    with np.errstate(over="ignore"):  # a distance beyond float32's range is inf
+        return np.ascontiguousarray(out, dtype=np.float32)
 
 
 def epipolar_distance_matrix(left_pts, right_pts, F, *, reduce: str = "mean",
