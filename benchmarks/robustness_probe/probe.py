@@ -310,6 +310,16 @@ lib("silent", "disparity range excludes the true shift (6 px, range 20..40)", ''
 def case():
     L, R = noise_pair(); return hopmatch.match_stereo(L, R, min_disparity=20, max_disparity=40)
 ''', "warning")
+for label, call in [
+    ("a flat left frame", "hopmatch.match_stereo(np.full_like(L, 9), R, max_disparity=16)"),
+    ("a 3-row pair", "hopmatch.match_stereo(L[:3].copy(), R[:3].copy(), max_disparity=16)"),
+    ("an all-zero left mask",
+     "hopmatch.match_stereo(L, R, max_disparity=16, mask_left=np.zeros(L.shape, np.uint8))"),
+]:
+    lib("silent", f"match_stereo: {label}", f'''
+    def case():
+        L, R = noise_pair(); return {call}
+    ''', "warning")
 
 # ------------------------------------------------------------------------ foreign
 for label, text in [
