@@ -308,12 +308,12 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         (found_l, t_l), (found_r, t_r) = run_both(lambda: detect(left, mask_left, "left"),
                                                   lambda: detect(right, mask_right, "right"),
                                                   threads)
-        if fundamental is not None or found_l[4].shape[0] == found_r[4].shape[0]:
+        (pts_l, *_, gray_l), (pts_r, *_, gray_r) = found_l, found_r
+        if fundamental is not None or gray_l.shape[0] == gray_r.shape[0]:
             # (a pair of two heights is refused below: no warning before the error)
             window = detector.getDescriptorSize()
-            warn_if_no_keypoints([(side, found[0], found[4], mask, window) for side, found,
-                                  mask in (("left", found_l, mask_left),
-                                           ("right", found_r, mask_right))])
+            warn_if_no_keypoints([("left", pts_l, gray_l, mask_left, window),
+                                  ("right", pts_r, gray_r, mask_right, window)])
         try:
             return match_detected(found_l, found_r, config,
                                   keypoint_size=float(detector.getWindowSize()),

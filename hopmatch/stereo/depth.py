@@ -147,7 +147,7 @@ def depth_from_disparity(disparity, *, Q=None, focal=None, baseline=None, doffs=
         num, den = f * b, d + off
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         z = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
-        z = z.astype(np.float32)  # depths beyond float32's range are inf, said as such
+        z = z.astype(np.float32)  # depths beyond float32's range become inf (see Returns)
     return float(z) if scalar else z
 
 
