@@ -308,18 +308,12 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         (found_l, t_l), (found_r, t_r) = run_both(lambda: detect(left, mask_left, "left"),
                                                   lambda: detect(right, mask_right, "right"),
                                                   threads)
-        (pts_l, *_, gray_l), (pts_r, *_, gray_r) = found_l, found_r
-        if fundamental is not None or gray_l.shape[0] == gray_r.shape[0]:
-            # (a pair of two heights is refused below: no warning before the error)
-            window = detector.getDescriptorSize()
-            warn_if_no_keypoints([("left", pts_l, gray_l, mask_left, window),
-                                  ("right", pts_r, gray_r, mask_right, window)])
         try:
-            return match_detected(found_l, found_r, config,
-                                  keypoint_size=float(detector.getWindowSize()),
-                                  fundamental=fundamental, record_energy=record_energy,
-                                  timings={"detect_left": t_l, "detect_right": t_r},
-                                  threads=threads, raise_unrectified=may_switch)
+            result = match_detected(found_l, found_r, config,
+                                    keypoint_size=float(detector.getWindowSize()),
+                                    fundamental=fundamental, record_energy=record_energy,
+                                    timings={"detect_left": t_l, "detect_right": t_r},
+                                    threads=threads, raise_unrectified=may_switch)
         except LooksUnrectifiedError as found:
             warn(f"the pair does not look rectified: {found.evidence}, so it was matched as "
                  "an unrectified pair, its epipolar geometry estimated from the images "
@@ -327,6 +321,12 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                  "rectified=True to search its rows anyway", UnrectifiedPairWarning)
             return _match_unrectified(left, right, detector, unrectified_config, None,
                                       mask_left, mask_right, record_energy)
+    # after match_detected, whose checks of the pair (two heights...) come first
+    (pts_l, *_, gray_l), (pts_r, *_, gray_r) = found_l, found_r
+    window = detector.getDescriptorSize()
+    warn_if_no_keypoints([("left", pts_l, gray_l, mask_left, window),
+                          ("right", pts_r, gray_r, mask_right, window)])
+    return result
 
 
 def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
