@@ -11,6 +11,7 @@ import numpy as np
 from .._params import Configurable, Param, boolean, choice, integer, real
 from .._validate import DEFAULT_MAX_PIXELS, as_gray_image, as_mask, as_points
 from ..errors import InvalidArgumentError, InvalidTypeError
+from .blocking import block_artifact_mask
 from .descriptor import gradient_windows, window_inside
 from .gradient import feature_image
 from .moravec import response, select_points
@@ -68,6 +69,11 @@ class DericheMoravecDetector(Configurable):
         Refine positions by a quadratic fit of V (see ``docs/parameters.md``).
     descriptor_size : int
         Odd side of the descriptor window (eqs. 7-9).
+    jpeg_guard : bool
+        Detect no point where an image's only texture is JPEG's 8 x 8 block grid
+        (:mod:`hopmatch.feature.blocking`): such points match the other view's at
+        multiples of 8 px whatever the scene's disparity. Images without a block grid are
+        unaffected. Default True; False in the ``paper`` preset.
     max_pixels : int
         Largest image (height x width) accepted; larger ones raise
         :class:`~hopmatch.errors.BudgetExceededError` before any copy is made. Detection
@@ -104,14 +110,17 @@ class DericheMoravecDetector(Configurable):
         Param("max_features", 0, integer(0)),
         Param("subpixel", True, boolean()),
         Param("descriptor_size", 9, integer(1, 99, odd=True)),
+        Param("jpeg_guard", True, boolean()),
         Param("max_pixels", DEFAULT_MAX_PIXELS, integer(1)),
     )
 
     PRESETS = {
         # section 4 of the paper: 5 x 5 Moravec window, 20 x 20 neighbourhood, integer pixels
-        "paper": {"window_size": 5, "nms_size": 20, "subpixel": False, "on": "gradient"},
+        "paper": {"window_size": 5, "nms_size": 20, "subpixel": False, "on": "gradient",
+                  "jpeg_guard": False},
     }
-    PRESETS["default"] = {"window_size": 3, "nms_size": 3, "subpixel": True, "on": "gradient"}
+    PRESETS["default"] = {"window_size": 3, "nms_size": 3, "subpixel": True, "on": "gradient",
+                          "jpeg_guard": True}
 
     def __init__(self, **params):
         self._init_params(params)
@@ -140,10 +149,23 @@ class DericheMoravecDetector(Configurable):
         return select_points(v, p["nms_size"], p["threshold"], p["relative_threshold"],
                              p["window_size"] // 2 + 1, p["max_features"], p["subpixel"], mask)
 
+    def detection_mask(self, gray: np.ndarray, mask=None, mask_name: str = "mask"):
+        """Where points of the grey image ``gray`` may be detected: ``mask`` (checked, as
+        for :meth:`detect`) less, with ``jpeg_guard``, where JPEG's block grid is the only
+        texture (:func:`~hopmatch.feature.blocking.block_artifact_mask`); None for
+        everywhere."""
+        mask = as_mask(mask, gray.shape, mask_name)
+        if not self._params["jpeg_guard"]:
+            return mask
+        allowed = block_artifact_mask(gray)
+        if allowed is None:
+            return mask
+        return allowed if mask is None else allowed & mask
+
     def detect_points(self, image, mask=None):
         """Points as arrays: ``(points (N, 2) float32 (x, y), responses (N,), G)``."""
-        g = self.feature_image(image)
-        pts, resp = self.points_on(g, mask)
+        gray, g = self.gray_and_feature_image(image)
+        pts, resp = self.points_on(g, self.detection_mask(gray, mask))
         return pts, resp, g
 
     def describe_points(self, g: np.ndarray, points: np.ndarray):
@@ -176,7 +198,7 @@ class DericheMoravecDetector(Configurable):
             itself), for steps that work on grey levels (the sub-pixel refinement).
         """
         gray, g = self.gray_and_feature_image(image, name)
-        pts, resp = self.points_on(g, mask, mask_name)
+        pts, resp = self.points_on(g, self.detection_mask(gray, mask, mask_name), mask_name)
         keep, desc = self.describe_points(g, pts)
         out = (np.compress(keep, pts, axis=0), resp[keep], desc, g)
         return out + (gray,) if keep_gray else out
