@@ -1,7 +1,8 @@
 """Per-scene quality of match_stereo's defaults, pass by pass, against ground truth.
 
 Run: ``python benchmarks/passes.py [--scenes NAME ...] [--perturb NAME ...] [--params JSON]
-[--guided JSON] [--halves JSON] [--baselines] [--ranking] [--refine-radius N] [--timing N]``
+[--guided JSON] [--halves JSON] [--baselines] [--ranking] [--grid] [--refine-radius N]
+[--timing N] [--smoke]``
 
 For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
 scene there) it prints: matches, correct@1px and precision@1px
@@ -11,6 +12,11 @@ correct matches (ground truth interpolated bilinearly at the sub-pixel left poin
 four pixels are known: meaningful on the float ground truth of the 2014 scenes), and the
 seconds of ``match_stereo`` (single thread). ``--baselines`` adds SIFT + ratio + band and
 StereoSGBM sampled at the same left keypoints (``hopmatch.compare``), and the pooled ratio.
+``--grid`` adds, per scene and pooled, how many of the wrong matches have a disparity
+within 0.5 px of a nonzero multiple of 8 px (where JPEG's block grid, at the same place in
+both views, puts them; docs/robustness.md, "JPEG, noise and blur"), and per scene each
+image's strongest phase of grey-level steps along x and y with its ratio to the others'
+(:func:`grid_strengths`).
 ``--ranking`` adds, per scene and pooled, the precision@1px of the best k % of the matches
 by ``result.distances`` (k = 10, 20, 30, 50, 70, 90, 100; scored matches only), which a
 confidence that ranks keeps (near) non-increasing in k.
@@ -23,8 +29,14 @@ the half-window test).
 ``--perturb`` applies a change to the right image before matching and maps the right
 points back through it before scoring: ``dy0.5`` (shifted down by 0.5 px), ``gain0.7``
 (intensities times 0.7), ``vig0.4`` (vignetting: times ``1 - 0.4 r^2``, r = 1 at the
-corners), ``gamma1.5`` (``255 (I / 255) ** 1.5``), ``rot0.1`` (rotated 0.1 degree about
-the centre), ``scale0.999``, or any combination joined by ``+``.
+corners), ``gamma1.5`` (``255 (I / 255) ** 1.5``), ``noise3`` (Gaussian noise of sigma 3
+grey levels, seed 0), ``blur1`` (a Gaussian blur of sigma 1 px), ``jpeg75`` (saved as a JPEG
+of quality 75 and read back), ``rot0.1`` (rotated 0.1 degree about the centre),
+``scale0.999``, or any combination joined by ``+``. ``lr-`` before ``noise``, ``blur`` or
+``jpeg`` (``lr-jpeg75``...) applies that change to the left image as well (its noise drawn
+with seed 1): the two views of one camera saved alike.
+
+``--smoke``: motorcycle's centre crop only (figures mean nothing).
 
 ``--refine-radius N`` refines with that window half-side on every scene instead of the
 size rule (``hopmatch.matching.stereo_match.refine_radius``; docs/parameters.md,
@@ -53,14 +65,17 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import (  # noqa: E402
     add_refine_radius_option,
+    add_smoke_option,
     force_refine_radius,
     single_thread,
+    smoke_scene,
 )
 
 import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
 from hopmatch.compare import METHODS  # noqa: E402
 from hopmatch.evaluate import score_matches  # noqa: E402
+from hopmatch.feature import blocking  # noqa: E402
 from hopmatch.matching import guided, halves  # noqa: E402
 
 
@@ -95,9 +110,43 @@ def perturbation(spec: str, shape) -> np.ndarray:
             r = np.vstack([cv2.getRotationMatrix2D(((w - 1) / 2, (h - 1) / 2), angle, scale),
                            [0, 0, 1]])
             m = r @ m
-        elif not part.startswith(("gain", "vig", "gamma")):
+        elif not part.removeprefix("lr-").startswith(GREY_CHANGES):
             raise SystemExit(f"unknown perturbation {part!r}")
+        elif part.startswith("lr-") and not part.startswith(LEFT_TOO):
+            raise SystemExit(f"lr- applies to {', '.join(LEFT_TOO)} only, got {part!r}")
     return m
+
+
+#: The perturbations that change grey levels only (the others move the right image), and
+#: those of them that ``lr-`` may apply to the left image too.
+GREY_CHANGES = ("gain", "vig", "gamma", "noise", "blur", "jpeg")
+LEFT_TOO = ("lr-noise", "lr-blur", "lr-jpeg")
+
+
+def grey_change(image: np.ndarray, part: str, seed: int) -> np.ndarray:
+    """``image`` (uint8) changed by one grey-level perturbation ``part`` (no ``lr-``)."""
+    if part.startswith("gain"):
+        return np.clip(image.astype(np.float32) * float(part[4:]), 0, 255).astype(np.uint8)
+    if part.startswith("vig"):  # vignetting: 1 - k r^2, r = 1 at the corners
+        h, w = image.shape[:2]
+        yy, xx = np.mgrid[:h, :w].astype(np.float32)
+        r2 = ((xx - (w - 1) / 2) ** 2 + (yy - (h - 1) / 2) ** 2) / (((w - 1) / 2) ** 2
+                                                                   + ((h - 1) / 2) ** 2)
+        fall = 1.0 - float(part[3:]) * r2
+        return np.clip(image.astype(np.float32) * (fall if image.ndim == 2 else fall[..., None]),
+                       0, 255).astype(np.uint8)
+    if part.startswith("gamma"):
+        return np.clip(255.0 * (image.astype(np.float32) / 255.0) ** float(part[5:]), 0,
+                       255).astype(np.uint8)
+    if part.startswith("noise"):
+        noise = np.random.default_rng(seed).normal(0.0, float(part[5:]), image.shape)
+        return np.clip(image.astype(np.float32) + noise, 0, 255).astype(np.uint8)
+    if part.startswith("blur"):
+        return cv2.GaussianBlur(image, (0, 0), float(part[4:]))
+    if part.startswith("jpeg"):
+        ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, int(part[4:])])
+        return cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
+    return image
 
 
 def perturb(right: np.ndarray, spec: str):
@@ -108,20 +157,16 @@ def perturb(right: np.ndarray, spec: str):
         out = cv2.warpAffine(right, m[:2], right.shape[1::-1], flags=cv2.INTER_LINEAR,
                              borderMode=cv2.BORDER_REFLECT)
     for part in spec.split("+"):
-        if part.startswith("gain"):
-            out = np.clip(out.astype(np.float32) * float(part[4:]), 0, 255).astype(np.uint8)
-        elif part.startswith("vig"):  # vignetting: 1 - k r^2, r = 1 at the corners
-            h, w = out.shape[:2]
-            yy, xx = np.mgrid[:h, :w].astype(np.float32)
-            r2 = ((xx - (w - 1) / 2) ** 2 + (yy - (h - 1) / 2) ** 2) / (((w - 1) / 2) ** 2
-                                                                       + ((h - 1) / 2) ** 2)
-            fall = 1.0 - float(part[3:]) * r2
-            out = np.clip(out.astype(np.float32) * (fall if out.ndim == 2 else fall[..., None]),
-                          0, 255).astype(np.uint8)
-        elif part.startswith("gamma"):
-            out = np.clip(255.0 * (out.astype(np.float32) / 255.0) ** float(part[5:]), 0,
-                          255).astype(np.uint8)
+        out = grey_change(out, part.removeprefix("lr-"), seed=0)
     return out, m
+
+
+def perturb_left(left: np.ndarray, spec: str) -> np.ndarray:
+    """The left image with the ``lr-`` parts of ``spec`` applied (noise with seed 1)."""
+    for part in spec.split("+"):
+        if part.startswith("lr-"):
+            left = grey_change(left, part.removeprefix("lr-"), seed=1)
+    return left
 
 
 def unmap(points: np.ndarray, m: np.ndarray) -> np.ndarray:
@@ -142,6 +187,30 @@ def score(left, right, disparity):
     good = np.isfinite(err) & (np.abs(err) <= 1.0) & (dy <= 1.0)
     med = float(np.median(np.abs(err[good]))) if good.any() else float("nan")
     return len(left), sc.correct[1.0], sc.precision[1.0], med
+
+
+def grid_locked(left, right, disparity) -> tuple[int, int]:
+    """``(wrong matches whose disparity is within 0.5 px of a nonzero multiple of 8 px,
+    wrong matches)``, wrong as :func:`score` counts them (scored, not correct at 1 px)."""
+    sc = score_matches(left, right, disparity, thresholds=(1.0,))
+    dy = np.abs(left[sc.scored, 1] - right[sc.scored, 1])
+    wrong = ~((np.abs(sc.errors) <= 1.0) & (dy <= 1.0))
+    d = (left[sc.scored, 0].astype(np.float64) - right[sc.scored, 0])[wrong]
+    k = np.round(d / 8.0)
+    return int(((k != 0) & (np.abs(d - 8.0 * k) <= 0.5)).sum()), int(wrong.sum())
+
+
+def grid_strengths(image: np.ndarray) -> str:
+    """``'p:r/q:s'``: along x then y, the phase modulo 8 with the largest mean grey-level
+    step (:func:`hopmatch.feature.blocking.phase_steps`) and that step over the mean of the
+    other seven phases' (a JPEG block grid when both reach ``blocking.GATE``)."""
+    gray = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image
+    cells = []
+    for axis in (1, 0):
+        steps = blocking.phase_steps(gray, axis)
+        p = int(np.argmax(steps))
+        cells.append(f"{p}:{steps[p] / ((steps.sum() - steps[p]) / 7):.2f}")
+    return "/".join(cells)
 
 
 #: The fractions of the matches, best first by distance, that ``--ranking`` scores.
@@ -177,9 +246,12 @@ def main(argv=None) -> int:
     ap.add_argument("--baselines", action="store_true", help="also SIFT and SGBM")
     ap.add_argument("--ranking", action="store_true",
                     help="also the precision of the best k %% by distance")
+    ap.add_argument("--grid", action="store_true",
+                    help="also the wrong matches at a disparity within 0.5 px of a nonzero "
+                         "multiple of 8 px (JPEG's block grid)")
     ap.add_argument("--timing", type=int, default=0,
                     help="also time --guided against the module's constants (N runs each)")
-    args = add_refine_radius_option(ap).parse_args(argv)
+    args = add_smoke_option(add_refine_radius_option(ap)).parse_args(argv)
     single_thread()
     force_refine_radius(args.refine_radius)
     params = json.loads(args.params)
@@ -193,7 +265,7 @@ def main(argv=None) -> int:
         if not (name.startswith("HALF_") and hasattr(halves, name)):
             raise SystemExit(f"--halves: hopmatch.matching.halves has no constant {name!r}")
         setattr(halves, name, value)
-    names = args.scenes or datasets.list_scenes()
+    names = ["motorcycle"] if args.smoke else (args.scenes or datasets.list_scenes())
     if args.timing > 0:
         print_timing(names, params, own, json.loads(args.guided), args.timing)
     for spec in args.perturb:
@@ -206,13 +278,14 @@ def main(argv=None) -> int:
         worst = (1.0, "")
         ranked = []
         for n in names:
-            scene = datasets.load(n)
+            scene = smoke_scene(datasets.load(n)) if args.smoke else datasets.load(n)
             right, m = perturb(scene.right, spec) if spec else (scene.right, np.eye(3))
+            left = perturb_left(scene.left, spec)
             with warnings.catch_warnings():  # a 64 x 64 crop, to compile: warns of nothing real
                 warnings.simplefilter("ignore", hopmatch.errors.HopmatchWarning)
-                hopmatch.match_stereo(scene.left[:64, :64], right[:64, :64], **params)
+                hopmatch.match_stereo(left[:64, :64], right[:64, :64], **params)
             t0 = time.perf_counter()
-            res = hopmatch.match_stereo(scene.left, right, **params)
+            res = hopmatch.match_stereo(left, right, **params)
             secs = time.perf_counter() - t0
             left_pts, right_pts = res.matched_left, unmap(res.matched_right, m)
             k, c, p, med = score(left_pts, right_pts, scene.disparity)
@@ -239,6 +312,12 @@ def main(argv=None) -> int:
                 tot["sift"] += cs
                 tot["sgbm"] += cg
                 row += f" | {cs}{'' if c >= cs else ' (miss)'} | {cg}"
+            if args.grid:
+                locked, wrong = grid_locked(left_pts, right_pts, scene.disparity)
+                tot["locked"] = tot.get("locked", 0) + locked
+                tot["wrong"] = tot.get("wrong", 0) + wrong
+                row += (f" | grid-locked {locked} of {wrong} wrong | steps by phase: left "
+                        f"{grid_strengths(left)}, right {grid_strengths(right)}")
             print(row, flush=True)
             if args.ranking:
                 flags, dist = best_k_correct(res.distances, left_pts, right_pts,
@@ -262,6 +341,8 @@ def main(argv=None) -> int:
                 f"worst {worst[0]:.3f} ({worst[1]})")
         if args.baselines:
             line += f"; SIFT {tot['sift']}, SGBM {tot['sgbm']} ({tot['c'] / tot['sgbm']:.2f}x)"
+        if args.grid:
+            line += f"; grid-locked {tot.get('locked', 0)} of {tot.get('wrong', 0)} wrong"
         print(line + "\n", flush=True)
     return 0
 

@@ -431,3 +431,30 @@ def test_kernel_ab_smoke():
     )
     assert_lines(run_script("kernel_ab.py"), r"\| kernel call \| items \| CPU ms \|",
                  table_row(r"refine_rows #2", r"\d+", NUM))
+
+
+def test_passes_grey_changes_and_grid_smoke():
+    """docs/robustness.md ("JPEG, noise and blur") quotes passes.py's pooled lines with
+    ``--grid`` and the grey-level perturbations, ``lr-`` ones on both views; an unknown or
+    misapplied change is refused."""
+    out = run_script("passes.py", "--grid", "--perturb", "lr-jpeg30+noise2", "blur1")
+    assert_lines(
+        out,
+        r"## perturbation: lr-jpeg30\+noise2; params defaults",
+        r"motorcycle \| \d+ \| \d+ \| [\d.]+ \| .* \| grid-locked \d+ of \d+ wrong \| steps by "
+        r"phase: left \d:\d\.\d\d/\d:\d\.\d\d, right \d:\d\.\d\d/\d:\d\.\d\d",
+        r"pooled: \d+ matches, \d+ correct, precision [\d.]+, worst [\d.]+ \(motorcycle\); "
+        r"grid-locked \d+ of \d+ wrong",
+        r"## perturbation: blur1; params defaults",
+    )
+    # the left view, saved as a JPEG (the right one has noise on top), has the block grid
+    # at phase 7 along x and y; unperturbed, it has none
+    rows = [line for line in out.splitlines() if line.startswith("motorcycle")]
+    grid = [re.search(r"left (\d):([\d.]+)/(\d):([\d.]+),", row).groups() for row in rows]
+    assert grid[0][0] == grid[0][2] == "7" and min(float(grid[0][1]), float(grid[0][3])) > 1.1
+    assert max(float(grid[1][1]), float(grid[1][3])) < 1.1, rows[1]
+    for bad in ("lr-gain0.5", "fog3"):
+        proc = subprocess.run([sys.executable, str(BENCHMARKS / "passes.py"), "--smoke",
+                               "--perturb", bad], cwd=ROOT, capture_output=True, text=True,
+                              timeout=TIMEOUT)
+        assert proc.returncode != 0 and bad in proc.stderr, proc.stderr
