@@ -7,7 +7,10 @@ pipeline, so that each is timed as it runs on its own, not in the caches and mem
 pipeline before it left (after SIFT's large buffers, the next call of another pipeline
 page-faults its memory in again));
 ``--profile`` also prints where hopmatch's time goes (cProfile over 20 pairs: the functions
-and kernels with the most time of their own, per pair). ``--smoke``: the same tables on a
+and kernels with the most time of their own, per pair). ``--jpeg Q``: every image (both
+views of both pairs) saved as a JPEG of quality Q and read back first, so that every
+pipeline, hopmatch's JPEG guard included (docs/robustness.md), runs on JPEG inputs.
+``--smoke``: the same tables on a
 240 x 160 crop, one round, 2 profiled pairs (a check that the script works; figures
 meaningless).
 
@@ -72,6 +75,14 @@ def dropin_pipeline(left, right):
     return run
 
 
+def as_jpeg(gray, quality):
+    """``gray`` saved as a JPEG of ``quality`` and read back (``gray`` itself for None)."""
+    if quality is None:
+        return gray
+    ok, buf = cv2.imencode(".jpg", gray, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
+    return cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
+
+
 def gradients(left, right):
     """The feature image (Canny-Deriche gradient) of both images, as detection makes it."""
     det = hopmatch.DericheMoravecDetector.create()
@@ -104,15 +115,18 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--profile", action="store_true",
                         help="also print where hopmatch's time goes (cProfile)")
+    parser.add_argument("--jpeg", type=int, default=None, metavar="Q",
+                        help="save every image as a JPEG of quality Q first")
     args = add_smoke_option(parser).parse_args(argv)
     single_thread()
     hopmatch.warmup()
     left, right, _ = motorcycle_bgr(smoke=args.smoke)
-    gl = cv2.cvtColor(left, cv2.COLOR_BGR2GRAY)
-    gr = cv2.cvtColor(right, cv2.COLOR_BGR2GRAY)
+    gl = as_jpeg(cv2.cvtColor(left, cv2.COLOR_BGR2GRAY), args.jpeg)
+    gr = as_jpeg(cv2.cvtColor(right, cv2.COLOR_BGR2GRAY), args.jpeg)
     orb = ratio_pipeline(cv2.ORB_create(3000), cv2.NORM_HAMMING)
     sift = ratio_pipeline(cv2.SIFT_create(), cv2.NORM_L2)
     kl, kr, kitti_note = kitti_pair(args.smoke)
+    kl, kr = as_jpeg(kl, args.jpeg), as_jpeg(kr, args.jpeg)
 
     times = best_times_interleaved({
         "hop": lambda: hopmatch.match_stereo(gl, gr),
@@ -129,7 +143,9 @@ def main(argv=None) -> None:
     t_hop, t_hop_kp, t_orb, t_sift = times["hop"], times["hop_kp"], times["orb"], times["sift"]
     res = hopmatch.match_stereo(gl, gr)
     print(f"Machine: {machine()}\n")
-    print(f"## End to end on motorcycle ({gl.shape[1]}x{gl.shape[0]}, grey), single thread\n")
+    saved = "" if args.jpeg is None else f", both images saved as JPEGs of quality {args.jpeg}"
+    print(f"## End to end on motorcycle ({gl.shape[1]}x{gl.shape[0]}, grey{saved}), single "
+          "thread\n")
     print(f"hopmatch: {len(res.points_left)}/{len(res.points_right)} keypoints, "
           f"{len(res.query_idx)} matches; stage times (last run): "
           + ", ".join(f"{k} {v * 1e3:.1f} ms" for k, v in res.timings.items()) + "\n")

@@ -79,37 +79,76 @@ def block_grid(gray: np.ndarray) -> tuple[int, int] | None:
     return phases[0], phases[1]
 
 
+def _box(a: np.ndarray) -> np.ndarray:
+    """Sums of ``a`` over the :data:`REACH`-square around each pixel, mirrored at the
+    border (``cv2.BORDER_REFLECT``)."""
+    return cv2.boxFilter(a, -1, (REACH, REACH), normalize=False,
+                         borderType=cv2.BORDER_REFLECT)
+
+
+def _step_counts(n: int, phase: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(on, off)``, each ``(n,)`` float32: how many of the :data:`REACH` indices around
+    each index along an axis of ``n`` pixels (mirrored as ``cv2.BORDER_REFLECT``) start a
+    step across the grid (``i % BLOCK == phase``, ``i < n - 1``) and how many start
+    another step (``i < n - 1``)."""
+    on = np.zeros((1, n), np.float32)
+    on[0, phase:n - 1:BLOCK] = 1.0
+    steps = np.zeros((1, n), np.float32)
+    steps[0, :n - 1] = 1.0
+    sums = [cv2.boxFilter(a, -1, (REACH, 1), normalize=False,
+                          borderType=cv2.BORDER_REFLECT)[0] for a in (on, steps)]
+    return sums[0], sums[1] - sums[0]
+
+
 def grid_dominated(gray: np.ndarray, phases: tuple[int, int]) -> np.ndarray:
     """``(H, W)`` bool: where the mean absolute step across the grid's lines (columns
     ``x`` with ``x % BLOCK == phases[0]`` stepping to ``x + 1``, rows likewise with
     ``phases[1]``) within the :data:`REACH`-square around a pixel exceeds
     :data:`DOMINANCE` times the mean step between the square's other neighbouring pixels,
     plus :data:`FLOOR` (grey levels scaled to spread over
-    :data:`~hopmatch.feature.gradient.INTENSITY_RANGE`)."""
+    :data:`~hopmatch.feature.gradient.INTENSITY_RANGE`). At most five float32 images at
+    once (20 bytes per pixel; the detector's own peak is larger)."""
     h, w = gray.shape
     spread = intensity_spread(gray)
     scale = INTENSITY_RANGE / spread if spread > 0.0 and np.isfinite(spread) else 1.0
-    img = (gray.astype(np.float64) * scale).astype(np.float32)
-    dx = np.zeros((h, w), np.float32)
-    dx[:, :-1] = np.abs(np.diff(img, axis=1))
-    dy = np.zeros((h, w), np.float32)
-    dy[:-1, :] = np.abs(np.diff(img, axis=0))
-    on_x = np.zeros((h, w), np.float32)
-    on_x[:, phases[0]:w - 1:BLOCK] = 1.0
-    on_y = np.zeros((h, w), np.float32)
-    on_y[phases[1]:h - 1:BLOCK, :] = 1.0
-    off_x = np.zeros((h, w), np.float32)
-    off_x[:, :-1] = 1.0 - on_x[:, :-1]
-    off_y = np.zeros((h, w), np.float32)
-    off_y[:-1, :] = 1.0 - on_y[:-1, :]
-
-    def box(a):
-        return cv2.boxFilter(a, -1, (REACH, REACH), normalize=False,
-                             borderType=cv2.BORDER_REFLECT)
-
-    grid = (box(dx * on_x) + box(dy * on_y)) / np.maximum(box(on_x) + box(on_y), 1.0)
-    other = (box(dx * off_x) + box(dy * off_y)) / np.maximum(box(off_x) + box(off_y), 1.0)
-    return grid > DOMINANCE * other + FLOOR
+    if gray.dtype == np.float64:  # scaled first: float32 cannot hold every float64
+        img = (gray * scale).astype(np.float32)
+    else:
+        img = gray.astype(np.float32)
+        img *= np.float32(scale)
+    # the steps to the right and down (0 past the last column and row), all of them and
+    # those across the grid's lines; box sums are linear, so two of them do
+    right = np.zeros((h, w), np.float32)
+    right[:, :-1] = cv2.absdiff(img[:, 1:], img[:, :-1])
+    down = np.zeros((h, w), np.float32)
+    down[:-1, :] = cv2.absdiff(img[1:, :], img[:-1, :])
+    del img
+    on_cols = np.zeros(w, np.float32)
+    on_cols[phases[0]::BLOCK] = 1.0
+    on_rows = np.zeros(h, np.float32)
+    on_rows[phases[1]::BLOCK] = 1.0
+    every = _box(right + down)
+    right *= on_cols[None, :]
+    down *= on_rows[:, None]
+    right += down
+    del down
+    grid_sum = _box(right)
+    del right
+    every -= grid_sum  # the other steps' sum
+    on_x, off_x = _step_counts(w, phases[0])
+    on_y, off_y = _step_counts(h, phases[1])
+    # each of the square's REACH rows (columns) holds the same steps along x (y): it holds
+    # REACH * n_grid steps across the grid's lines and REACH * n_other others, and
+    # grid / n_grid > DOMINANCE * other / n_other + FLOOR * REACH, multiplied out:
+    n_grid = np.maximum(np.add.outer(on_y, on_x), np.float32(1.0 / REACH))
+    n_other = np.maximum(np.add.outer(off_y, off_x), np.float32(1.0 / REACH))
+    grid_sum *= n_other
+    every *= n_grid
+    every *= np.float32(DOMINANCE)
+    n_grid *= n_other
+    n_grid *= np.float32(FLOOR * REACH)
+    every += n_grid
+    return grid_sum > every
 
 
 def block_artifact_mask(gray: np.ndarray) -> np.ndarray | None:

@@ -458,3 +458,14 @@ def test_passes_grey_changes_and_grid_smoke():
                                "--perturb", bad], cwd=ROOT, capture_output=True, text=True,
                               timeout=TIMEOUT)
         assert proc.returncode != 0 and bad in proc.stderr, proc.stderr
+
+
+def test_end_to_end_jpeg_smoke():
+    """``--jpeg Q`` times every pipeline on JPEG inputs and says so in the heading."""
+    out = run_script("end_to_end.py", "--jpeg", "75")
+    assert_lines(
+        out,
+        r"## End to end on motorcycle \(\d+x\d+, grey, both images saved as JPEGs of quality "
+        r"75\), single thread",
+        table_row("drop-in: detectAndCompute x2 \\+ setPairInfo \\+ match", NUM, NUM, NUM, NUM),
+    )
