@@ -59,6 +59,14 @@ def force_refine_radius(radius: int | None) -> None:
     stereo_match.refine_radius = lambda shape: int(radius)
 
 
+def as_jpeg(image: np.ndarray, quality) -> np.ndarray:
+    """``image`` saved as a JPEG of ``quality`` and read back (``image`` itself for None)."""
+    if quality is None:
+        return image
+    ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
+    return cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
+
+
 def smoke_crop(image: np.ndarray, size: tuple[int, int] = SMOKE_SIZE) -> np.ndarray:
     """The centre ``size = (width, height)`` crop of ``image`` (a contiguous copy).
 

@@ -39,6 +39,7 @@ import cv2
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import (  # noqa: E402
     add_smoke_option,
+    as_jpeg,
     best_times_interleaved,
     machine,
     motorcycle_bgr,
@@ -73,14 +74,6 @@ def dropin_pipeline(left, right):
         return matcher.match(dl, dr)
 
     return run
-
-
-def as_jpeg(gray, quality):
-    """``gray`` saved as a JPEG of ``quality`` and read back (``gray`` itself for None)."""
-    if quality is None:
-        return gray
-    ok, buf = cv2.imencode(".jpg", gray, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
-    return cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
 
 
 def gradients(left, right):

@@ -66,6 +66,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import (  # noqa: E402
     add_refine_radius_option,
     add_smoke_option,
+    as_jpeg,
     force_refine_radius,
     single_thread,
     smoke_scene,
@@ -144,8 +145,7 @@ def grey_change(image: np.ndarray, part: str, seed: int) -> np.ndarray:
     if part.startswith("blur"):
         return cv2.GaussianBlur(image, (0, 0), float(part[4:]))
     if part.startswith("jpeg"):
-        ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, int(part[4:])])
-        return cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
+        return as_jpeg(image, int(part[4:]))
     return image
 
 
@@ -189,12 +189,19 @@ def score(left, right, disparity):
     return len(left), sc.correct[1.0], sc.precision[1.0], med
 
 
+def scored_correct(left, right, disparity):
+    """``(score, correct)``: :func:`hopmatch.evaluate.score_matches` at 1 px and, per scored
+    match, whether its disparity error and its ``|dy|`` are both within 1 px."""
+    sc = score_matches(left, right, disparity, thresholds=(1.0,))
+    dy = np.abs(left[sc.scored, 1] - right[sc.scored, 1])
+    return sc, (np.abs(sc.errors) <= 1.0) & (dy <= 1.0)
+
+
 def grid_locked(left, right, disparity) -> tuple[int, int]:
     """``(wrong matches whose disparity is within 0.5 px of a nonzero multiple of 8 px,
     wrong matches)``, wrong as :func:`score` counts them (scored, not correct at 1 px)."""
-    sc = score_matches(left, right, disparity, thresholds=(1.0,))
-    dy = np.abs(left[sc.scored, 1] - right[sc.scored, 1])
-    wrong = ~((np.abs(sc.errors) <= 1.0) & (dy <= 1.0))
+    sc, ok = scored_correct(left, right, disparity)
+    wrong = ~ok
     d = (left[sc.scored, 0].astype(np.float64) - right[sc.scored, 0])[wrong]
     k = np.round(d / 8.0)
     return int(((k != 0) & (np.abs(d - 8.0 * k) <= 0.5)).sum()), int(wrong.sum())
@@ -219,9 +226,7 @@ RANK_FRACTIONS = (0.1, 0.2, 0.3, 0.5, 0.7, 0.9, 1.0)
 
 def best_k_correct(distances, left, right, disparity):
     """``(correct flags, distances)`` of the scored matches, sorted by distance (stable)."""
-    sc = score_matches(left, right, disparity, thresholds=(1.0,))
-    dy = np.abs(left[sc.scored, 1] - right[sc.scored, 1])
-    ok = (np.abs(sc.errors) <= 1.0) & (dy <= 1.0)
+    sc, ok = scored_correct(left, right, disparity)
     dist = np.asarray(distances)[sc.scored]
     order = np.argsort(dist, kind="stable")
     return ok[order], dist[order]

@@ -23,7 +23,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .gradient import INTENSITY_RANGE, intensity_spread
+from .gradient import normalised_intensity
 
 #: JPEG's block side (px).
 BLOCK = 8
@@ -105,17 +105,11 @@ def grid_dominated(gray: np.ndarray, phases: tuple[int, int]) -> np.ndarray:
     ``x`` with ``x % BLOCK == phases[0]`` stepping to ``x + 1``, rows likewise with
     ``phases[1]``) within the :data:`REACH`-square around a pixel exceeds
     :data:`DOMINANCE` times the mean step between the square's other neighbouring pixels,
-    plus :data:`FLOOR` (grey levels scaled to spread over
-    :data:`~hopmatch.feature.gradient.INTENSITY_RANGE`). At most five float32 images at
+    plus :data:`FLOOR` (grey levels of
+    :func:`~hopmatch.feature.gradient.normalised_intensity`). At most five float32 images at
     once (20 bytes per pixel; the detector's own peak is larger)."""
     h, w = gray.shape
-    spread = intensity_spread(gray)
-    scale = INTENSITY_RANGE / spread if spread > 0.0 and np.isfinite(spread) else 1.0
-    if gray.dtype == np.float64:  # scaled first: float32 cannot hold every float64
-        img = (gray * scale).astype(np.float32)
-    else:
-        img = gray.astype(np.float32)
-        img *= np.float32(scale)
+    img = normalised_intensity(gray)
     # the steps to the right and down (0 past the last column and row), all of them and
     # those across the grid's lines; box sums are linear, so two of them do
     right = np.zeros((h, w), np.float32)
