@@ -313,7 +313,8 @@ def rectifying_homographies(F, left, right, size):
     same ``y -> e y + f`` for both images, and for each image its own ``x -> a x + b y +
     c``. They are fitted by least squares so that the rectified coordinates of ``left``
     (and ``right``) stay closest to the given ones: the network's lengths then keep their
-    meaning in pixels. None when OpenCV finds no rectification."""
+    meaning in pixels. Each map is scaled so that its ``w`` is positive at the image's
+    centre. None when OpenCV finds no rectification."""
     pl = np.asarray(left, np.float64).reshape(-1, 2)
     pr = np.asarray(right, np.float64).reshape(-1, 2)
     try:
@@ -326,10 +327,14 @@ def rectifying_homographies(F, left, right, size):
     ql = transform_points(pl, H1).astype(np.float64)
     qr = transform_points(pr, H2).astype(np.float64)
     ey, fy = np.linalg.lstsq(np.c_[ql[:, 1], np.ones(len(ql))], pl[:, 1], rcond=None)[0]
+    centre = np.array([(size[0] - 1) / 2, (size[1] - 1) / 2, 1.0])
     out = []
     for q, p, H in ((ql, pl, H1), (qr, pr, H2)):
         a, b, c = np.linalg.lstsq(np.c_[q, np.ones(len(q))], p[:, 0], rcond=None)[0]
-        out.append(np.array([[a, b, c], [0.0, ey, fy], [0.0, 0.0, 1.0]]) @ H)
+        M = np.array([[a, b, c], [0.0, ey, fy], [0.0, 0.0, 1.0]]) @ H
+        # a homography is defined up to scale, and OpenCV's may come with a negative one
+        # (w < 0 at every point): the same map, scaled so that w > 0 at the image's centre
+        out.append(-M if (M @ centre)[2] < 0 else M)
     return out[0], out[1]
 
 

@@ -33,6 +33,7 @@ from .unrectified import (
     UNRECTIFIED_VERTICAL,
     empty_network_result,
     match_unrectified,
+    rectified_canvas,
     shared_frame,
 )
 from .vertical import RowOffset, fit_row_offset, median_offset
@@ -511,7 +512,7 @@ def _without(drop, query_idx, train_idx, points_right, pts_r, n_right, passes, d
     else:
         train_idx = train_idx[keep]
     return (query_idx[keep], train_idx, points_right, passes[keep], distances[keep], gm,
-            Refinement(*(a[keep] for a in refinement)))
+            None if refinement is None else Refinement(*(a[keep] for a in refinement)))
 
 
 def refine_radius(shape) -> int:
@@ -581,7 +582,7 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
         network=net, keypoint_size=float(detector.getWindowSize()), timings=timings,
         match_timings={"network": timings.get("match", 0.0), "guided": 0.0, "refine": 0.0},
         fundamental_matrix=geometry.fundamental, geometry=geometry)
-    if frame is not None and frame.mode == "aligned" and len(net.query_idx):
+    if frame is not None and frame.mode != "epipolar" and len(net.query_idx):
         result = unrectified_beyond_network(result, frame)
     for check in few_matches_check:
         check(kept=len(result.query_idx))
@@ -590,21 +591,43 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
 
 def unrectified_beyond_network(result: StereoMatchResult, frame) -> StereoMatchResult:
     """:func:`beyond_network` (the guided pass and the refinement) on an unrectified pair
-    searched along the rows of its aligned images: run in the canvas of
-    :func:`~hopmatch.matching.unrectified.shared_frame`, where the pair is a rectified
+    searched along the rows of its aligned images (``frame.mode`` ``'aligned'``) or of its
+    rectification (``'rectified'``): run in the canvas of
+    :func:`~hopmatch.matching.unrectified.shared_frame` or
+    :func:`~hopmatch.matching.unrectified.rectified_canvas`, where the pair is a rectified
     one of one size (its refinement window that of the left image's size, not the
-    canvas's), and every new or moved right point mapped back into the right image (the
-    inverse of the alignment)."""
+    canvas's), and every new or moved right point mapped back into the right image; a
+    match whose right point lands outside it is dropped (``_without``)."""
     pts_l, pts_r = result.points_left, result.points_right
-    fl, fr, grays, grads, (_, b) = shared_frame(frame, pts_l, frame.right_points)
+    if frame.mode == "aligned":
+        fl, fr, grays, grads, (_, b) = shared_frame(frame, pts_l, frame.right_points)
+        descriptors, to_right = frame.descriptors, np.linalg.inv(frame.to_aligned)
+    else:
+        fl, fr, grays, grads, descriptors, to_right = rectified_canvas(
+            frame, pts_l, frame.right_points)
+        b = 0
     out = beyond_network(dataclasses.replace(result, points_left=fl, points_right=fr),
-                         frame.descriptors, grads, grays, result.network.config,
+                         descriptors, grads, grays, result.network.config,
                          image_shape=np.shape(frame.grays[0])[:2])
     if out.points_right is fr:
         return dataclasses.replace(out, points_left=pts_l, points_right=pts_r)
     n = len(fr)
     back = np.asarray(out.points_right, np.float64) - [b, 0.0]
-    mapped = transform_points(back, np.linalg.inv(frame.to_aligned)).astype(np.float32)
+    mapped = transform_points(back, to_right).astype(np.float32)
     same = np.all(out.points_right[:n] == fr, axis=1)
     mapped[:n][same] = pts_r[same]
+    # the canvas holds more than the right image: a window there may peak just beyond it
+    h, w = frame.right_shape
+    outside = ~((mapped[:, 0] >= 0) & (mapped[:, 0] <= w - 1) & (mapped[:, 1] >= 0)
+                & (mapped[:, 1] <= h - 1))
+    drop = outside[out.train_idx]
+    if drop.any():
+        query_idx, train_idx, mapped, passes, distances, gm, refinement = _without(
+            drop, out.query_idx, out.train_idx, mapped, pts_r, n, out.passes,
+            out.distances, out.guided, out.refinement)
+        k = 0 if gm is None else len(gm.query_idx)
+        out = dataclasses.replace(
+            out, query_idx=query_idx, train_idx=train_idx, passes=passes,
+            distances=distances, guided=gm, refinement=refinement,
+            responses_right=out.responses_right[:n + k])
     return dataclasses.replace(out, points_left=pts_l, points_right=mapped)

@@ -17,9 +17,10 @@ rectified=False)``.
    identity) or else the epipolar band of F (:func:`search_frame`), over the disparity
    range a coarse pass finds there (:func:`network_range`). F is refitted on the
    network's matches (the F reported).
-5. On the aligned rows, the guided second pass and the sub-pixel refinement of a rectified
-   pair follow (``hopmatch.matching.stereo_match.unrectified_beyond_network``), on the
-   images of :func:`shared_frame`.
+5. On the aligned rows or the rows of the rectification, the guided second pass and the
+   sub-pixel refinement of a rectified pair follow
+   (``hopmatch.matching.stereo_match.unrectified_beyond_network``), on the images of
+   :func:`shared_frame` or :func:`rectified_canvas`.
 
 What the images show nothing of (outside the right image, its mask, :func:`black_padding`)
 holds the median grey level of the rest (:func:`warp_right`, :func:`fill_padding`).
@@ -38,6 +39,7 @@ import cv2
 import numpy as np
 
 from .._validate import as_gray_image, as_mask, check_coordinate_range
+from ..feature.descriptor import gradient_windows
 from .disparity_range import coarse_extent
 from .geometry import (
     EpipolarGeometry,
@@ -81,13 +83,13 @@ REFITS = True
 #: aligned rows when they line up the inliers nearly as well as F does (median |dy| within
 #: ROW_FACTOR x F's median epipolar error, or ROW_PIXELS, within the network's
 #: :data:`UNRECTIFIED_VERTICAL`: a near-degenerate F, from a scene close to one plane,
-#: fits its inliers worse than the rows do; only the aligned rows get the guided pass
-#: and the refinement, which read the images along rows), else the rows of a
+#: fits its inliers worse than the rows do), else the rows of a
 #: projective rectification of both point sets
 #: (:func:`~hopmatch.matching.geometry.rectifying_homographies`), unless it moves a point
 #: of the image by more than RECTIFY_LIMIT of its diagonal (:func:`near_identity`; a
 #: near-degenerate F gives wild rectifications): then the epipolar band of F (slower: the
-#: candidate search cannot index rows).
+#: candidate search cannot index rows; and the guided pass and the refinement, which
+#: read the images along rows, do not follow).
 ROW_FACTOR = 1.5
 ROW_PIXELS = 0.5
 RECTIFY_LIMIT = 0.1
@@ -315,6 +317,11 @@ class SearchFrame:
     grays, gradients, descriptors : tuples of (left, aligned right)
         The images the points were detected on (the right one warped into the left frame,
         both after :func:`equalise_sharpness`) and the points' windows.
+    right_shape : tuple of int
+        ``(H, W)`` of the right image as given.
+    maps : tuple of two (3, 3) float64 ndarrays, or None
+        ``'rectified'`` only: the maps of the left points and of the aligned right points
+        into the network's frame (``q_l = H1 x_l``, ``q_r = H2 x_a``), None otherwise.
     """
 
     mode: str
@@ -324,6 +331,8 @@ class SearchFrame:
     grays: tuple
     gradients: tuple
     descriptors: tuple
+    right_shape: tuple
+    maps: tuple | None = None
 
 
 def match_unrectified(left, right, detector, config, *, mask_left=None, mask_right=None,
@@ -370,8 +379,9 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     pts_r = transform_points(pts_a, np.linalg.inv(to_aligned))
     for round_ in range(PASSES):
         pending = None if few_matches_later is None else []  # the last network's only
-        net, mode, shift = search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size,
-                                  config, record_energy, few_matches_later=pending)
+        net, mode, shift, maps = search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r,
+                                        size, config, record_energy,
+                                        few_matches_later=pending)
         if round_ + 1 < PASSES or REFITS:
             refit = refit_fundamental(geometry, pts_l[net.query_idx], pts_r[net.train_idx])
             if refit is geometry:
@@ -384,18 +394,21 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     geometry = dataclasses.replace(geometry, search=mode)
     frame = SearchFrame(mode=mode, to_aligned=to_aligned, shift=shift, right_points=pts_a,
                         grays=(gray_l, gray_r), gradients=(g_l, g_r),
-                        descriptors=(desc_l, desc_r))
+                        descriptors=(desc_l, desc_r), maps=maps,
+                        right_shape=tuple(right_gray.shape[:2]))
     return pts_l, resp_l, pts_r, resp_r, net, geometry, timings, frame
 
 
 def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, record_energy,
            few_matches_later: list | None = None):
-    """``(network result, mode, shift)``: the network on the left points and the aligned
-    right points ``pts_a``, in the frame of :func:`search_frame`, over the range of
+    """``(network result, mode, shift, maps)``: the network on the left points and the
+    aligned right points ``pts_a``, in the frame of :func:`search_frame`, over the range of
     :func:`network_range` (or of the inliers). In ``'aligned'`` mode the right points are
     moved by a whole number of pixels, ``shift`` (the range is moved by what rounding
     left), so that the images can be moved with them (:class:`SearchFrame`); ``shift``
-    is None in the other modes. ``few_matches_later``: passed to
+    is None in the other modes. ``maps``: in ``'rectified'`` mode, ``(H1, H2)``, the maps
+    of the left and the aligned right points into the network's frame; None in the
+    others. ``few_matches_later``: passed to
     :func:`~hopmatch.matching.network.match_pair`."""
     H1, H2, (lo, hi), mode = search_frame(geometry, to_aligned, size)
     if H1 is None:  # the epipolar band of F, in the aligned frame shifted by H2
@@ -408,7 +421,7 @@ def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, rec
     check_coordinate_range(q_l, "left")
     check_coordinate_range(q_r, "right")
     lo, hi, shift = network_range(config, q_l, q_r, desc_l, desc_r, size[0], fundamental, hi)
-    whole = None
+    whole, maps = None, None
     if mode == "aligned":  # H1 = I, H2 = a shift in x
         total = float(H2[0, 2]) + shift
         whole = int(np.floor(total + 0.5))
@@ -418,13 +431,15 @@ def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, rec
         q_r = transform_points(q_r, shift_x(shift))
         if fundamental is not None:
             fundamental = shift_x(-shift).T @ fundamental
+        else:
+            maps = (H1, shift_x(shift) @ H2)
     cfg = config
     if config.max_disparity is None:
         cfg = dataclasses.replace(config, min_disparity=lo, max_disparity=hi)
     net = match_pair(PairInfo(q_l, q_r, size, size), desc_l, desc_r, cfg,
                      fundamental=fundamental, record_energy=record_energy,
                      descriptors_checked=True, few_matches_later=few_matches_later)
-    return net, mode, whole
+    return net, mode, whole, maps
 
 
 def pad_columns(image: np.ndarray, before: int, after: int) -> np.ndarray:
@@ -449,6 +464,45 @@ def shared_frame(frame: SearchFrame, pts_l, pts_a):
     left = (np.asarray(pts_l, np.float32) + np.float32([a, 0])).astype(np.float32)
     right = (np.asarray(pts_a, np.float32) + np.float32([b, 0])).astype(np.float32)
     return left, right, grays, grads, (a, b)
+
+
+def rectified_canvas(frame: SearchFrame, pts_l, pts_a):
+    """``(left points, right points, grays, gradients, descriptors, to_right)`` of a
+    ``'rectified'`` frame: the left image warped by ``T H1`` and the aligned right image by
+    ``T H2`` (``frame.maps``, bilinear; beyond them the grey images hold their median and
+    the feature images 0) onto one canvas that holds both,
+    ``T`` the whole-pixel translation that brings the canvas's corner to (0, 0) (the same
+    for both: disparities ``x_l' - x_r'`` are the network's); the points mapped alike,
+    their windows cut again from the warped feature images (the steps after the network
+    compare windows of one frame); ``to_right`` the 3 x 3 map from the canvas back to the
+    right image (through the alignment). The steps that read images at the points (the
+    guided pass, the refinement) then see a rectified pair."""
+    H1, H2 = frame.maps
+    h, w = np.shape(frame.grays[0])[:2]
+    corners = np.array([[0, 0], [w - 1, 0], [0, h - 1], [w - 1, h - 1]], np.float64)
+    both = np.concatenate((transform_points(corners, H1), transform_points(corners, H2)))
+    x0, y0 = np.floor(both.min(axis=0))
+    x1, y1 = np.ceil(both.max(axis=0))
+    T = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]])
+    size = (int(x1 - x0) + 1, int(y1 - y0) + 1)
+
+    def warp(image, H, fill):
+        return np.ascontiguousarray(cv2.warpPerspective(
+            np.asarray(image, np.float32), T @ H, size, flags=cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_CONSTANT, borderValue=float(fill)))
+
+    # beyond the images: their median grey level (flat, as :func:`warp_right` fills), no
+    # gradient
+    grays = tuple(warp(g, H, np.median(np.asarray(g)[::4, ::4]))
+                  for g, H in zip(frame.grays, (H1, H2)))
+    grads = (warp(frame.gradients[0], H1, 0.0), warp(frame.gradients[1], H2, 0.0))
+    left = transform_points(pts_l, T @ H1).astype(np.float32)
+    right = transform_points(pts_a, T @ H2).astype(np.float32)
+    side = int(round(np.sqrt(np.shape(frame.descriptors[0])[1])))
+    descriptors = (gradient_windows(grads[0], left, side),
+                   gradient_windows(grads[1], right, side))
+    to_right = np.linalg.inv(frame.to_aligned) @ np.linalg.inv(T @ H2)
+    return left, right, grays, grads, descriptors, to_right
 
 
 def empty_network_result(config) -> NetworkResult:

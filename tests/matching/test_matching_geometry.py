@@ -7,7 +7,7 @@ import warnings
 import cv2
 import numpy as np
 import pytest
-from unrect_scene import SIZE, plane_correspondences, render_pair
+from unrect_scene import SIZE, fundamental, plane_correspondences, render_pair
 
 import hopmatch
 from hopmatch.errors import HopmatchWarning, PairInfoError
@@ -97,6 +97,30 @@ def test_rectifying_homographies_stay_near_the_identity_on_a_rectified_pair():
     for H, pts in ((H1, left), (H2, right)):
         moved = np.hypot(*(transform_points(pts, H) - pts).T)
         assert moved.max() < 1.0
+
+
+@pytest.mark.parametrize("flip", [(1, 1), (-1, 1), (1, -1), (-1, -1)])
+def test_rectifying_homographies_are_scaled_to_a_positive_w(monkeypatch, flip):
+    """OpenCV may give a rectifying homography with a negative scale (w < 0 at every point
+    of the image: the same map). rectifying_homographies returns each map scaled so that
+    w > 0 at the image's centre, the same map whatever the sign OpenCV chose, so that
+    near_identity judges the map and not its scale (the verged chessboard photos of
+    OpenCV's samples came with w < 0 and were searched in the slower epipolar band)."""
+    left, right = plane_correspondences()
+    F = fundamental()
+    reference = rectifying_homographies(F, left, right, SIZE)
+    original = cv2.stereoRectifyUncalibrated
+
+    def flipped(*args, **kwargs):
+        ok, H1, H2 = original(*args, **kwargs)
+        return ok, flip[0] * H1, flip[1] * H2
+
+    monkeypatch.setattr(cv2, "stereoRectifyUncalibrated", flipped)
+    H1, H2 = rectifying_homographies(F, left, right, SIZE)
+    centre = np.array([(SIZE[0] - 1) / 2, (SIZE[1] - 1) / 2, 1.0])
+    for H, ref in zip((H1, H2), reference):
+        assert (H @ centre)[2] > 0
+        np.testing.assert_allclose(H, ref, rtol=1e-12, atol=1e-12)
 
 
 def test_shuffled_correspondences_are_refused():

@@ -11,8 +11,10 @@ from unrect_scene import SIZE, perturbation, perturbed_truth, render_pair, textu
 
 import hopmatch
 from hopmatch.errors import InvalidArgumentError, InvalidTypeError
+from hopmatch.feature.descriptor import gradient_windows
 from hopmatch.matching import unrectified as u
-from hopmatch.matching.geometry import symmetric_epipolar_error
+from hopmatch.matching.geometry import symmetric_epipolar_error, transform_points
+from hopmatch.matching.stereo_match import PASS_GUIDED
 
 
 @pytest.fixture(scope="module")
@@ -32,6 +34,54 @@ def test_a_verged_pair_is_matched_along_its_true_epipolar_lines(verged):
     assert np.median(symmetric_epipolar_error(res.fundamental_matrix, res.matched_left,
                                               res.matched_right)) < 0.5
     assert set(res.timings) >= {"geometry", "detect_left", "detect_right", "match"}
+
+
+def test_a_rectified_search_frame_gets_the_guided_pass_and_the_refinement(verged):
+    """The verged rig's rows line up only after a projective rectification ('rectified'
+    frame): the guided pass and the refinement run on both images warped onto one canvas
+    (rectified_canvas) and add matches that lie on the true epipolar lines."""
+    _, _, F, res = verged
+    assert res.geometry.search == "rectified"
+    guided = res.passes == PASS_GUIDED
+    assert guided.sum() > 1000 and res.refinement is not None
+    assert len(res.refinement.x) == len(res.query_idx)
+    err = symmetric_epipolar_error(F, res.matched_left[guided], res.matched_right[guided])
+    assert np.mean(err <= 1.0) > 0.97
+
+
+def test_the_rectified_canvas_maps_points_and_images_consistently():
+    """rectified_canvas: both images warped by T H1 and T H2 onto one canvas; each point
+    lands where its image's content went (the warped image sampled there equals the
+    original at the point), the right points map back through ``to_right``, and the
+    windows are cut from the warped feature images."""
+    rng = np.random.default_rng(5)
+    h, w = 120, 160
+    gray_l = cv2.GaussianBlur(rng.random((h, w)).astype(np.float32), (0, 0), 2.0) * 200
+    gray_a = cv2.GaussianBlur(rng.random((h, w)).astype(np.float32), (0, 0), 2.0) * 200
+    grads = (gray_l * 0.5, gray_a * 0.5)
+    H1 = np.array([[1.01, 0.02, -3.0], [-0.015, 0.99, 4.0], [1e-5, 2e-5, 1.0]])
+    H2 = np.array([[0.98, -0.01, 6.0], [0.01, 1.02, -5.0], [-2e-5, 1e-5, 1.0]])
+    to_aligned = np.array([[1.0, 0.0, 2.0], [0.0, 1.0, -1.5], [0.0, 0.0, 1.0]])
+    pts_l = rng.uniform(20, [w - 20, h - 20], (50, 2)).astype(np.float32)
+    pts_a = rng.uniform(20, [w - 20, h - 20], (50, 2)).astype(np.float32)
+    desc = np.zeros((50, 49), np.float32)
+    frame = u.SearchFrame(mode="rectified", to_aligned=to_aligned, shift=None,
+                          right_points=pts_a, grays=(gray_l, gray_a), gradients=grads,
+                          descriptors=(desc, desc), right_shape=(h, w), maps=(H1, H2))
+    left, right, grays, canvas_grads, descriptors, to_right = u.rectified_canvas(
+        frame, pts_l, pts_a)
+    for canvas_pts, image, pts, canvas in ((left, gray_l, pts_l, grays[0]),
+                                           (right, gray_a, pts_a, grays[1])):
+        assert (canvas_pts >= 0).all()
+        assert (canvas_pts[:, 0] <= canvas.shape[1] - 1).all()
+        assert (canvas_pts[:, 1] <= canvas.shape[0] - 1).all()
+        on_canvas = cv2.remap(canvas, canvas_pts[:, :1], canvas_pts[:, 1:], cv2.INTER_LINEAR)
+        original = cv2.remap(image, pts[:, :1], pts[:, 1:], cv2.INTER_LINEAR)
+        np.testing.assert_allclose(on_canvas, original, atol=2.0)
+    np.testing.assert_allclose(transform_points(right, to_right),
+                               transform_points(pts_a, np.linalg.inv(to_aligned)), atol=1e-3)
+    np.testing.assert_array_equal(descriptors[0], gradient_windows(canvas_grads[0], left, 7))
+    np.testing.assert_array_equal(descriptors[1], gradient_windows(canvas_grads[1], right, 7))
 
 
 def test_points_are_reported_in_the_given_images(verged):
