@@ -1,7 +1,7 @@
 """Unrectified pairs and self-finding disparity ranges (issue 18): the figures of its goals.
 
 Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large ranges]
-[--scenes NAME ...] [--refine-radius N]``
+[--verge DEG] [--scenes NAME ...] [--refine-radius N]``
 (single thread; needs ``../shared/data`` or ``$HOPMATCH_SHARED_DATA`` for every section but
 ``large``).
 
@@ -14,7 +14,9 @@ Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large 
   correct@1px as ``hopmatch eval`` scores it), ``bound`` the share of those reference
   matches whose right point stays in the warped image. ``F err`` is the distance of 2000
   true correspondences (from the ground truth) to the epipolar lines of the returned F:
-  median and 95th percentile, px.
+  median and 95th percentile, px. ``--verge DEG``: every perturbation after the right
+  camera turned by DEG degrees about its vertical axis (a homography, ``K R K^-1`` with a
+  focal length of the image's width: a verged rig, whose rows no similarity aligns).
 - ``chessboards``: OpenCV's 13 chessboard pairs, raw and undistorted with their
   calibration (intrinsics by ``cv2.calibrateCamera``, extrinsics by ``cv2.stereoCalibrate``
   of the chessboard corners, as ``examples/stereo_calibration.py`` does); the share of
@@ -92,12 +94,32 @@ LARGE = (2964, 2000)
 SMOKE_LARGE = (1000, 675)
 
 
-def perturbation(size, angle, dy, scale) -> np.ndarray:
-    """The 2 x 3 affine map of the right image: rotation about the centre, scale, shift."""
+def perturbation(size, angle, dy, scale, verge=0.0) -> np.ndarray:
+    """The map of the right image: the 2 x 3 affine map of a rotation about the centre, a
+    scale and a vertical shift; with ``verge`` (degrees), the 3 x 3 homography of that
+    map after the right camera turned by ``verge`` about its vertical axis (``K R K^-1``,
+    ``K`` a focal length of the image's width, centred: a verged rig)."""
     w, h = size
     A = cv2.getRotationMatrix2D(((w - 1) / 2, (h - 1) / 2), angle, scale)
     A[1, 2] += dy
-    return A
+    if not verge:
+        return A
+    K = np.array([[w, 0.0, (w - 1) / 2], [0.0, w, (h - 1) / 2], [0.0, 0.0, 1.0]])
+    R = cv2.Rodrigues(np.array([0.0, np.radians(verge), 0.0]))[0]
+    return np.vstack([A, [0.0, 0.0, 1.0]]) @ K @ R @ np.linalg.inv(K)
+
+
+def warp(image, A, size):
+    """``image`` moved by the map ``A`` of :func:`perturbation` (bilinear)."""
+    if A.shape[0] == 2:
+        return cv2.warpAffine(image, A, size, flags=cv2.INTER_LINEAR)
+    return cv2.warpPerspective(image, A, size, flags=cv2.INTER_LINEAR)
+
+
+def apply(A, points) -> np.ndarray:
+    """(N, 2) float64: ``points`` mapped by ``A`` (2 x 3 affine, or 3 x 3 homography)."""
+    t = np.c_[np.asarray(points, np.float64).reshape(-1, 2), np.ones(len(points))] @ A.T
+    return t[:, :2] / t[:, 2:] if A.shape[0] == 3 else t
 
 
 def truth(left_pts, disparity, A):
@@ -109,7 +131,8 @@ def truth(left_pts, disparity, A):
     ok = (xi >= 0) & (xi < w) & (yi >= 0) & (yi < h)
     d = np.full(len(left_pts), np.nan)
     d[ok] = disparity[yi[ok], xi[ok]]
-    t = np.c_[left_pts[:, 0] - d, left_pts[:, 1], np.ones(len(left_pts))] @ A.T
+    with np.errstate(invalid="ignore"):
+        t = apply(A, np.c_[left_pts[:, 0] - d, left_pts[:, 1]])
     known = np.isfinite(d) & (t[:, 0] >= 0) & (t[:, 0] <= w - 1) & (t[:, 1] >= 0) & (
         t[:, 1] <= h - 1)
     return t, known
@@ -222,8 +245,9 @@ def f_error(F, scene, A, rng) -> tuple[float, float]:
     return float(np.median(e)), float(np.percentile(e, 95))
 
 
-def perturbed(names, perturbations) -> None:
-    print("## Perturbed pairs: match_stereo(left, right, rectified=False)\n")
+def perturbed(names, perturbations, verge=0.0) -> None:
+    print("## Perturbed pairs: match_stereo(left, right, rectified=False)"
+          + (f", the right camera also verged by {verge:g} degrees" if verge else "") + "\n")
     print("| scene | rotation, shift, scale | matches | correct | precision | ref | ratio | "
           "bound | F err median / p95 | search | s |")
     print("|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|")
@@ -236,8 +260,8 @@ def perturbed(names, perturbations) -> None:
             scene = smoke_scene(scene)
         ref, ref_right = reference(scene)
         for angle, dy, scale in perturbations:
-            A = perturbation(scene.image_size, angle, dy, scale)
-            right = cv2.warpAffine(scene.right, A, scene.image_size, flags=cv2.INTER_LINEAR)
+            A = perturbation(scene.image_size, angle, dy, scale, verge)
+            right = warp(scene.right, A, scene.image_size)
             t0 = time.perf_counter()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -246,7 +270,7 @@ def perturbed(names, perturbations) -> None:
             t, known = truth(r.matched_left, scene.disparity, A)
             ok = known & (np.hypot(*(r.matched_right - t[:, :2]).T) <= 1.0)
             n, c = int(known.sum()), int(ok.sum())
-            moved = np.c_[ref_right, np.ones(len(ref_right))] @ A.T
+            moved = apply(A, ref_right)
             h, w = scene.shape
             bound = float(np.mean((moved[:, 0] >= 7) & (moved[:, 0] <= w - 8) & (moved[:, 1] >= 7)
                                   & (moved[:, 1] <= h - 8))) if len(moved) else float("nan")
@@ -485,6 +509,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sections", nargs="*", choices=SECTIONS, default=list(SECTIONS))
     ap.add_argument("--scenes", nargs="*", help="scene names (default: every shared scene)")
+    ap.add_argument("--verge", type=float, default=0.0,
+                    help="perturbed: the right camera also turned by this many degrees "
+                         "about its vertical axis (a verged rig; default 0)")
     args = add_refine_radius_option(add_smoke_option(ap)).parse_args(argv)
     single_thread()
     force_refine_radius(args.refine_radius)
@@ -498,7 +525,8 @@ def main(argv=None) -> int:
         elif not shared and section == "chessboards":
             print("## Chessboard pairs: skipped (no shared data)\n")
         elif section == "perturbed":
-            perturbed(names, PERTURBATIONS[:1] if args.smoke else PERTURBATIONS)
+            perturbed(names, PERTURBATIONS[:1] if args.smoke else PERTURBATIONS,
+                      args.verge)
         elif section == "chessboards":
             chessboards(args.smoke)
         elif section == "ranges":

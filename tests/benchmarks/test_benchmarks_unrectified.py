@@ -103,3 +103,27 @@ def test_upsampled_truth_matches_a_slow_reference():
     ok = (pts >= 0).all(axis=1) & (pts[:, 0] < 119.5) & (pts[:, 1] < 79.5)
     xi, yi = np.floor(pts[ok] + 0.5).astype(int).T
     np.testing.assert_allclose(m.upsampled_truth(gt, pts[ok], 4, -1.0), big[yi, xi], rtol=1e-6)
+
+
+def test_a_verged_perturbation_and_its_truth_agree():
+    """``--verge``: the right image warped by perturbation(..., verge) and the truth map
+    ``apply`` are one map in one direction: the warped image read at ``A (x, y)`` is the
+    original read at (x, y) (inside the image), for the affine perturbations as for the
+    verged homography; and a verged map is not affine (its rows do not stay parallel)."""
+    m = _unrectified()
+    rng = np.random.default_rng(2)
+    image = cv2.GaussianBlur(rng.random((240, 320)).astype(np.float32), (0, 0), 3.0)
+    pts = np.c_[rng.uniform(60, 260, 200), rng.uniform(50, 190, 200)]
+    for verge in (0.0, 4.0, -4.0):
+        A = m.perturbation((320, 240), 2.0, 8.0, 1.01, verge)
+        assert A.shape == ((2, 3) if verge == 0 else (3, 3))
+        moved = m.apply(A, pts).astype(np.float32)
+        warped = m.warp(image, A, (320, 240))
+        got = cv2.remap(warped, moved[:, :1], moved[:, 1:], cv2.INTER_LINEAR).ravel()
+        want = cv2.remap(image, pts[:, :1].astype(np.float32), pts[:, 1:].astype(np.float32),
+                         cv2.INTER_LINEAR).ravel()
+        np.testing.assert_allclose(got, want, atol=2e-3)
+    corners = np.array([[0.0, 0.0], [319.0, 0.0], [0.0, 239.0], [319.0, 239.0]])
+    top, bottom = m.apply(m.perturbation((320, 240), 0.0, 0.0, 1.0, 4.0), corners).reshape(
+        2, 2, 2)
+    assert abs((bottom[0, 1] - top[0, 1]) - (bottom[1, 1] - top[1, 1])) > 1.0  # keystone
