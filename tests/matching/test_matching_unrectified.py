@@ -49,6 +49,18 @@ def test_a_rectified_search_frame_gets_the_guided_pass_and_the_refinement(verged
     assert np.mean(err <= 1.0) > 0.97
 
 
+def test_a_rectified_search_frame_is_bit_identical_in_threads(verged):
+    """The guided pass and the refinement on the warped canvas run in threads like the
+    rest: the same matches for one thread as for two."""
+    left, right, _, _ = verged
+    one = hopmatch.match_stereo(left, right, rectified=False, threads=1)
+    two = hopmatch.match_stereo(left, right, rectified=False, threads=2)
+    assert one.geometry.search == "rectified" and one.passes.max() == 1
+    for name in ("points_left", "points_right", "query_idx", "train_idx", "distances",
+                 "passes", "fundamental_matrix"):
+        np.testing.assert_array_equal(getattr(two, name), getattr(one, name), name)
+
+
 def test_the_rectified_canvas_maps_points_and_images_consistently():
     """rectified_canvas: both images warped by T H1 and T H2 onto one canvas; each point
     lands where its image's content went (the warped image sampled there equals the
