@@ -113,14 +113,22 @@ def inlier_range(left, right, width: float):
     return RANGE_START, hi - shift, shift
 
 
-def aligned_frame(geometry: EpipolarGeometry, width: float):
-    """``(to_aligned, (lo, hi))``: the 3 x 3 map from the right image to the left image's
-    frame (:func:`~hopmatch.matching.geometry.row_alignment`, then the x shift that makes
-    the inliers' disparity range start at :data:`RANGE_START`) and that range."""
+def aligned_frame(geometry: EpipolarGeometry, size, right_size):
+    """The 3 x 3 map from the right image (``right_size``, ``(W, H)``) to the left image's
+    frame (``size``): the similarity of :func:`~hopmatch.matching.geometry.row_alignment`,
+    then the whole-pixel x shift that brings the right image's centre to the column of the
+    left one's (:func:`warp_right` keeps the left image's size).
+
+    Where the right image sits in x does not matter to the network (:func:`search` shifts
+    the points by the range it finds), but it decides which right pixels the frame keeps:
+    at its own place every right pixel that can show a point of the left image stays
+    inside, whatever the disparities' sign or size. (A shift read from the inliers'
+    disparities would push the image out of the frame when false inliers stretch them.)"""
     S = row_alignment(geometry)
-    inl_r = transform_points(geometry.right_points[geometry.inliers], np.linalg.inv(S))
-    lo, hi, shift = inlier_range(geometry.left_points[geometry.inliers], inl_r, width)
-    return shift_x(shift) @ np.linalg.inv(S), (lo, hi)
+    to_aligned = np.linalg.inv(S)
+    cx, cy = 0.5 * (right_size[0] - 1), 0.5 * (right_size[1] - 1)
+    moved = to_aligned[0, 0] * cx + to_aligned[0, 1] * cy + to_aligned[0, 2]
+    return shift_x(float(np.floor(0.5 * (size[0] - 1) - moved + 0.5))) @ to_aligned
 
 
 def warp_right(right_gray, mask_right, to_aligned, size, margin: int):
@@ -364,7 +372,7 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
         empty = np.zeros((0, 2), np.float32)
         return (pts_l, resp_l, empty, np.zeros(0, np.float32), None, geometry, timings,
                 None)
-    to_aligned, _ = aligned_frame(geometry, size[0])
+    to_aligned = aligned_frame(geometry, size, right_gray.shape[::-1])
     left_gray = fill_padding(left_gray)
     margin = detector.getDescriptorSize() // 2 + detector.getWindowSize() // 2 + 2
     warped, valid = warp_right(right_gray, m_r, to_aligned, size, margin)

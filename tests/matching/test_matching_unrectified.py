@@ -173,6 +173,40 @@ def test_the_warp_outside_the_right_image_holds_its_median():
     assert not valid[:14].any() and valid[20:140, 30:190].all()
 
 
+def test_the_aligned_frame_keeps_the_right_image_whatever_the_inliers_disparities():
+    # right = S @ aligned with S a 3-degree rotation, scale 1.02 and a shift: the frame
+    # lines up the rows and puts the right image's centre on the left one's column, so
+    # false inliers far along their rows (stretched disparities) do not move the image
+    rng = np.random.default_rng(7)
+    size, right_size = (640, 480), (600, 450)
+    A = cv2.getRotationMatrix2D((0.0, 0.0), 3.0, 1.02)
+    A[:, 2] = (35.0, -12.0)
+    S = np.vstack((A, (0.0, 0.0, 1.0)))
+    left = rng.uniform((0, 0), size, (200, 2))
+    aligned = left - np.c_[rng.uniform(10, 60, 200), np.zeros(200)]
+    right = transform_points(aligned, S)
+
+    def geometry(right_points):
+        return u.EpipolarGeometry(fundamental=np.eye(3), left_points=left.astype(np.float32),
+                                  right_points=right_points.astype(np.float32),
+                                  inliers=np.ones(200, bool), median_error=0.1,
+                                  source="sift")
+
+    to_aligned = u.aligned_frame(geometry(right), size, right_size)
+    false = right.copy()
+    false[:20] = transform_points(aligned[:20] - np.c_[np.full(20, 250.0), np.zeros(20)], S)
+    np.testing.assert_allclose(u.aligned_frame(geometry(false), size, right_size),
+                               to_aligned, atol=1e-6)
+    # rows lined up, and the whole right image kept in x (its centre on the left's)
+    got = transform_points(right, to_aligned)
+    np.testing.assert_allclose(got[:, 1], left[:, 1], atol=1e-6)
+    centre = transform_points(np.array([[299.5, 224.5]]), to_aligned)[0]
+    assert abs(centre[0] - 319.5) <= 0.5
+    # S^-1's rotation and scale, and a whole-pixel x shift (the alignment fits rows only)
+    np.testing.assert_allclose(to_aligned[:, :2], np.linalg.inv(S)[:, :2], atol=1e-9)
+    assert to_aligned[0, 2] == np.round(to_aligned[0, 2])
+
+
 def test_a_perturbed_middlebury_pair(shared_data):
     from hopmatch import datasets
     s = datasets.load("middlebury/art", root=shared_data)
