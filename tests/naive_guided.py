@@ -38,6 +38,14 @@ def window(g, x, y, s):
     return np.array([bilinear(g, x + c - r, y + rr - r) for rr in range(s) for c in range(s)])
 
 
+def sheared_window(g, x, y, s, shear):
+    """:func:`window` with its row ``rr`` moved by ``-shear (rr - s // 2)`` px in x (the
+    right window on a surface whose disparity grows by ``shear`` px per row)."""
+    r = s // 2
+    return np.array([bilinear(g, x + c - r - shear * (rr - r), y + rr - r)
+                     for rr in range(s) for c in range(s)])
+
+
 def zncc(a, b):
     """Zero-mean normalised cross-correlation of two windows (-1 for a flat b)."""
     a = np.asarray(a, np.float64) - np.mean(a)
@@ -58,14 +66,17 @@ def normalised_distance(a, b, eps=1e-6, gain_tol=1.0):
 
 
 def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer, back,
-                   min_zncc, margin, gain_tol=1.0, clip=False, peaks=False, shoulder=2):
+                   min_zncc, margin, gain_tol=1.0, clip=False, peaks=False, shoulder=2,
+                   shear=0.0):
     """The row search of one query as ``hopmatch._kernels.guided.row_search`` documents it:
     ``(found, best, second, xr, similarity)``; ``found`` False when any test fails, and
     the values NaN when the search did not reach them. ``clip``: the columns are first
     clipped to those whose windows (and one more column) lie in the right image; the
     caller checks the rest of the kernel's ``OUTSIDE``. ``peaks``: the runner-up is the
     best ZNCC beyond the first rise on either side of the best column (past its valleys);
-    else the best ZNCC at least ``shoulder`` columns from it."""
+    else the best ZNCC at least ``shoulder`` columns from it. ``shear``: the right windows
+    are the :func:`sheared_window` at each whole column, and the one at the refined x is
+    interpolated linearly between the two whole columns around it."""
     s = int(round(math.sqrt(len(left_window))))
     yr = yl - y_offset
     c0 = math.floor(centre + 0.5)
@@ -75,7 +86,7 @@ def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer
         if len(cols) < 3:
             nan = float("nan")
             return False, nan, nan, nan, nan
-    z = [zncc(left_window, window(g_r, c, yr, s)) for c in cols]
+    z = [zncc(left_window, sheared_window(g_r, c, yr, s, shear)) for c in cols]
     inner_idx = range(1, len(cols) - 1)
     mb = max(inner_idx, key=lambda m: (z[m], -m))  # first best
     if peaks:
@@ -97,7 +108,9 @@ def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer
     den = z[mb - 1] - 2 * best + z[mb + 1]
     delta = min(max(0.5 * (z[mb - 1] - z[mb + 1]) / den, -0.5), 0.5) if den < 0 else 0.0
     xr = cols[mb] + delta
-    right = window(g_r, xr, yr, s)
+    fx = math.floor(xr)
+    right = ((1 - (xr - fx)) * sheared_window(g_r, fx, yr, s, shear)
+             + (xr - fx) * sheared_window(g_r, fx + 1, yr, s, shear))
     sim = normalised_distance(left_window, right, gain_tol=gain_tol)
     here = zncc(right, left_window)
     for t in range(1, back + 1):

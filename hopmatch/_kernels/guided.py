@@ -97,18 +97,33 @@ def neighbour_medians(offsets, idx, values):
 
 
 @jit
-def _strip(g, x_lo, n_cols, y_top, ay, rows, out):
+def _strip(g, x_lo, n_cols, y_top, ay, rows, out, shear=0.0):
     """``out[r, c]``: g at row ``y_top + r + ay`` (lerped between rows) and column
-    ``x_lo + c`` for ``r < rows``, ``c < n_cols``."""
+    ``x_lo + c - shear (r - rows // 2)`` (lerped between columns when ``shear`` is not 0)
+    for ``r < rows``, ``c < n_cols``: with ``shear`` the disparity gradient along y of a
+    surface, the rows of a window on it in the right image slide as the surface does."""
     by = 1.0 - ay
+    half = rows // 2
     for r in range(rows):
         # row views and a loop from 0: no checks for negative indices, so the loop
         # vectorises (the same arithmetic as g[y, x] per element: 2-4x faster)
-        a = g[y_top + r, x_lo:x_lo + n_cols]
-        b = g[y_top + r + 1, x_lo:x_lo + n_cols]
         o = out[r]
-        for c in range(n_cols):
-            o[c] = by * np.float64(a[c]) + ay * np.float64(b[c])
+        if shear == 0.0:
+            a = g[y_top + r, x_lo:x_lo + n_cols]
+            b = g[y_top + r + 1, x_lo:x_lo + n_cols]
+            for c in range(n_cols):
+                o[c] = by * np.float64(a[c]) + ay * np.float64(b[c])
+        else:
+            sh = -shear * (r - half)
+            fs = np.floor(sh)
+            ax = sh - fs
+            x0 = x_lo + int(fs)
+            a = g[y_top + r, x0:x0 + n_cols + 1]
+            b = g[y_top + r + 1, x0:x0 + n_cols + 1]
+            for c in range(n_cols):
+                v0 = by * np.float64(a[c]) + ay * np.float64(b[c])
+                v1 = by * np.float64(a[c + 1]) + ay * np.float64(b[c + 1])
+                o[c] = (1.0 - ax) * v0 + ax * v1
 
 
 @jit
@@ -187,7 +202,8 @@ def _zncc_bilinear(a, sa2, g, x, y, s):
 
 @jit
 def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer, back,
-               min_zncc, margin, eps, gain_tol=1.0, clip=False, peaks=False, shoulder=2):
+               min_zncc, margin, eps, gain_tol=1.0, clip=False, peaks=False, shoulder=2,
+               shear=None):
     """The guided search of each query (left point) along its row of the right image.
 
     For query q (left point ``i = queries[q]`` at (xl, yl)), the right row is
@@ -223,6 +239,15 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
     another match (the margin then separates the peak from the best other peak).
     ``shoulder``: without ``peaks``, the runner-up is the best ZNCC at least ``shoulder``
     columns from ``c*`` (the columns nearer are the peak's own flanks).
+
+    ``shear`` (per query, or None for 0): the disparity gradient along y of the surface
+    the query lies on; row ``r`` of each right window (``r = -rad..rad`` from its centre)
+    is then read ``shear[q] r`` px further left (lerped between columns), as a window on a
+    receding surface (a road, a floor) is sheared in the right image. The window at the
+    refined position is then lerped between the two sheared windows at the columns around
+    it. A search whose slid rows leave the image (the columns ``x_lo - ceil(|shear| rad)``
+    to ``x_hi + floor(|shear| rad) + 1``, ``x_lo``, ``x_hi`` those of the strip without
+    shear) is :data:`OUTSIDE`.
     """
     h, w = g_r.shape
     hl, wl = g_l.shape
@@ -263,7 +288,12 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
         x_hi = last + rad + 1  # one more column for the refined window
         fy = np.floor(yr)
         y_top = int(fy) - rad
-        if n_span < 3 or x_lo < 0 or x_hi > w - 1 or y_top < 0 or y_top + s > h - 1:
+        g_y = 0.0 if shear is None else shear[q]
+        # how far the rows slide (:func:`_strip`): left, and right with the lerp's column
+        left_reach = int(np.ceil(abs(g_y) * rad))
+        right_reach = int(np.floor(abs(g_y) * rad)) + (g_y != 0.0)
+        if (n_span < 3 or x_lo - left_reach < 0 or x_hi + right_reach > w - 1
+                or y_top < 0 or y_top + s > h - 1):
             continue
         sa2 = 0.0
         for t in range(n):
@@ -272,7 +302,7 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
         if sa2 <= 1e-12:
             status[q] = FLAT
             continue
-        _strip(g_r, x_lo, x_hi - x_lo + 1, y_top, yr - fy, s, strip)
+        _strip(g_r, x_lo, x_hi - x_lo + 1, y_top, yr - fy, s, strip, g_y)
         _correlate(af, sa2, strip, s, n_span, acc, colsum, colsq, z)
         mb = 1
         for m in range(1, n_span - 1):

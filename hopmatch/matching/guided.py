@@ -72,6 +72,10 @@ GUIDED_PREDICT_NEAREST = 0
 #: Largest disparity gradient (px per px, each axis) the field test carries neighbours
 #: along: the disparity-gradient limit of Pollard, Mayhew and Frisby.
 GUIDED_GRADIENT_LIMIT = 1.0
+#: Compare each query's window with right windows whose rows slide along its neighbours'
+#: disparity plane (its gradient along y; :func:`~hopmatch._kernels.guided.row_search`'s
+#: ``shear``): on a receding surface (a road, a floor) the right window is sheared.
+GUIDED_SHEAR = True
 #: Rounds of the guided pass (:func:`guided_rounds`): each propagates from every match
 #: found before it.
 GUIDED_ROUNDS = 3
@@ -430,17 +434,21 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     yoff = np.ascontiguousarray(np.asarray(y_offset, dtype=np.float64)[q])
     centre = np.ascontiguousarray(pts_l[q, 0].astype(np.float64) - pred)
 
+    shear = np.ascontiguousarray(gy if GUIDED_SHEAR else np.zeros_like(gy))
+
     def search_rows(im_l, im_r, points, windows, which, qs, min_zncc):
         """The row search on ``im_l``, ``im_r`` of the queries ``q[qs]``, the left point
         ``q[k]`` being ``points[which[k]]`` with the window ``windows[which[k]]``."""
         return map_chunks(
-            lambda ww, cs, ys: _k.row_search(im_l, im_r, points, windows, ww, cs, ys,
-                                             float(radius), int(search), int(back),
-                                             float(min_zncc), float(margin), EPS,
-                                             float(config.gain_tolerance), False,
-                                             bool(GUIDED_PEAK_MARGIN), int(GUIDED_SHOULDER)),
+            lambda ww, cs, ys, ss: _k.row_search(im_l, im_r, points, windows, ww, cs, ys,
+                                                 float(radius), int(search), int(back),
+                                                 float(min_zncc), float(margin), EPS,
+                                                 float(config.gain_tolerance), False,
+                                                 bool(GUIDED_PEAK_MARGIN),
+                                                 int(GUIDED_SHOULDER), ss),
             (np.ascontiguousarray(which), np.ascontiguousarray(centre[qs]),
-             np.ascontiguousarray(yoff[qs])), threads, order=row_order(pts_l[q[qs], 1]))
+             np.ascontiguousarray(yoff[qs]), np.ascontiguousarray(shear[qs])), threads,
+            order=row_order(pts_l[q[qs], 1]))
 
     status, best, second, xr, sim = search_rows(g_l, g_r, pts_l, desc_l, q, slice(None),
                                                 min_zncc)

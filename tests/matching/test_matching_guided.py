@@ -3,6 +3,8 @@ and what match_stereo returns with it."""
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import naive_guided as ng
 import numpy as np
@@ -94,28 +96,48 @@ def _search_case(seed=3, shift=7.3):
     return g_l, g_r, pts, desc
 
 
-@pytest.mark.parametrize("gain, gain_tol, peaks, shoulder", [
-    (1.0, 1.0, False, 2), (0.93, 1.0, False, 2), (0.93, 1.1, False, 2), (1.2, 1.1, False, 2),
-    (1.0, 1.0, True, 2), (0.93, 1.1, True, 2), (1.0, 1.0, False, 3), (0.93, 1.1, False, 3)])
-def test_row_search_matches_the_reference(gain, gain_tol, peaks, shoulder):
+@pytest.mark.parametrize("gain, gain_tol, peaks, shoulder, shear", [
+    (1.0, 1.0, False, 2, None), (0.93, 1.0, False, 2, None), (0.93, 1.1, False, 2, None),
+    (1.2, 1.1, False, 2, None), (1.0, 1.0, True, 2, None), (0.93, 1.1, True, 2, None),
+    (1.0, 1.0, False, 3, None), (0.93, 1.1, False, 3, None), (1.0, 1.0, False, 3, 0.0),
+    (1.0, 1.0, False, 3, 0.3), (0.93, 1.1, False, 3, -0.7)])
+def test_row_search_matches_the_reference(gain, gain_tol, peaks, shoulder, shear):
     """Also with a right image of another gain (``gain``): the similarity then allows for
     a gain within ``gain_tol`` (eq. 7 as the network's, 1: as written); ``peaks``: the
     runner-up of the margin is the best other peak (``GUIDED_PEAK_MARGIN``), else the best
-    at least ``shoulder`` columns away (``GUIDED_SHOULDER``)."""
+    at least ``shoulder`` columns away (``GUIDED_SHOULDER``); ``shear``: each query's
+    right windows slide by its own disparity gradient along y (None: not given, 0)."""
     g_l, g_r, pts, desc = _search_case()
+    d = np.full(len(pts), 7.3)
+    if shear:  # a right image whose disparity grows by `shear` px per row
+        yy, xx = np.mgrid[0:80, 0:120].astype(np.float32)
+        g_r = cv2.remap(g_l, xx + np.float32(7.3) + np.float32(shear) * (yy - 40), yy,
+                        cv2.INTER_CUBIC)
+        d = 7.3 + shear * (pts[:, 1].astype(np.float64) - 40)
     g_r = (g_r * gain).astype(g_r.dtype)
     q = np.arange(len(pts), dtype=np.int64)
-    centre = pts[:, 0].astype(np.float64) - 7.3 + RNG.uniform(-2.5, 2.5, len(pts))
+    centre = pts[:, 0].astype(np.float64) - d + RNG.uniform(-2.5, 2.5, len(pts))
     yoff = RNG.uniform(-0.4, 0.4, len(pts))
+    shears = None if shear is None else np.full(len(pts), float(shear))
     status, best, second, xr, sim = _k.row_search(g_l, g_r, pts, desc, q, centre, yoff, 2.0,
                                                   4, 1, 0.5, 0.05, 1e-6, gain_tol, False,
-                                                  peaks, shoulder)
+                                                  peaks, shoulder, shears)
     found = 0
     for m in range(len(pts)):
+        # the strip's columns (the searched ones, one more at each end, the windows' half
+        # sides and the refined window's column), slid by the shear: inside, or OUTSIDE
+        g = 0.0 if shears is None else float(shears[m])
+        c0 = math.floor(centre[m] + 0.5)
+        x_lo, x_hi = c0 - 4 - 1 - 4, c0 + 4 + 1 + 4 + 1
+        outside = (x_lo - math.ceil(abs(g) * 4) < 0
+                   or x_hi + math.floor(abs(g) * 4) + (g != 0) > g_r.shape[1] - 1)
+        assert (status[m] == _k.OUTSIDE) == outside, m
+        if outside:
+            continue
         ok, b, s2, x, si = ng.row_search_one(g_l, g_r, float(pts[m, 0]), float(pts[m, 1]),
                                              desc[m], centre[m], yoff[m], 2.0, 4, 1, 0.5,
                                              0.05, gain_tol, peaks=peaks,
-                                             shoulder=shoulder)
+                                             shoulder=shoulder, shear=g)
         assert (status[m] == _k.FOUND) == ok, m
         assert best[m] == pytest.approx(b, abs=1e-6)
         assert second[m] == pytest.approx(s2, abs=1e-6)
@@ -290,7 +312,7 @@ def test_guided_matches_pass_every_acceptance_test(step, window, peaks, monkeypa
         ok, best, second, xr, sim = ng.row_search_one(
             gl, gr, float(pl[i, 0]), float(pl[i, 1]), dl[i], centre, 0.0, GUIDED_RADIUS, 3,
             1, GUIDED_MIN_ZNCC, 0.1, config.gain_tolerance, peaks=peaks,
-            shoulder=GUIDED_SHOULDER)
+            shoulder=GUIDED_SHOULDER, shear=grad[1])  # windows along the plane
         assert ok, m
         assert gm.right_points[m, 0] == pytest.approx(xr, abs=1e-4)
         assert best >= GUIDED_MIN_ZNCC and best - second >= 0.1
@@ -675,3 +697,27 @@ def test_seeds_beyond_the_work_budget_are_the_weakest_left_out(monkeypatch):
         got, q = seeds(budget)
         np.testing.assert_array_equal(q, all_q[:n])  # the strongest n
         assert np.isin(got.query_idx, all_q[:n]).all()
+
+
+def test_a_sheared_search_follows_a_receding_surface():
+    """A right image whose disparity grows by 0.5 px per row (a road, a floor): the row
+    search with the surface's gradient (``shear``) scores the true column higher than the
+    search with square windows, and finds it (within 0.25 px) at least as often."""
+    rng = np.random.default_rng(11)
+    g_l = texture(90, 140, 5, sigma=1.2).astype(np.float32)
+    yy, xx = np.mgrid[0:90, 0:140].astype(np.float32)
+    g_r = cv2.remap(g_l, xx + 10.0 + 0.5 * (yy - 45.0), yy, cv2.INTER_CUBIC)
+    pts = np.c_[rng.uniform(35, 105, 60), rng.uniform(25, 65, 60)].astype(np.float32)
+    desc = gradient_windows(g_l, pts, 9)
+    q = np.arange(len(pts), dtype=np.int64)
+    d = 10.0 + 0.5 * (pts[:, 1].astype(np.float64) - 45.0)
+    centre = pts[:, 0] - d
+    yoff = np.zeros(len(pts))
+    runs = [_k.row_search(g_l, g_r, pts, desc, q, centre, yoff, 2.0, 3, 1, 0.5, 0.05, 1e-6,
+                          1.0, False, False, 3, shear)
+            for shear in (np.zeros(len(pts)), np.full(len(pts), 0.5))]
+    (st0, best0, _, xr0, _), (st1, best1, _, xr1, _) = runs
+    assert np.mean(best1 > best0) > 0.9 and np.median(best1) > np.median(best0) + 0.05
+    hit0 = (st0 == _k.FOUND) & (np.abs(xr0 - centre) <= 0.25)
+    hit1 = (st1 == _k.FOUND) & (np.abs(xr1 - centre) <= 0.25)
+    assert hit1.sum() >= hit0.sum() and hit1.sum() >= 0.8 * len(pts)
