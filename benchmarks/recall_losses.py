@@ -61,7 +61,7 @@ from hopmatch import datasets  # noqa: E402
 from hopmatch.compare import METHODS  # noqa: E402
 from hopmatch.evaluate import correct_matches, score_matches  # noqa: E402
 from hopmatch.feature.detector import DericheMoravecDetector  # noqa: E402
-from hopmatch.matching import guided  # noqa: E402
+from hopmatch.matching import guided, guided_results  # noqa: E402
 from hopmatch.matching.params import matcher_config  # noqa: E402
 from hopmatch.matching.similarity import similarity_distance  # noqa: E402
 from hopmatch.matching.stereo_match import (  # noqa: E402
@@ -176,7 +176,7 @@ def scene_losses(scene, spec=""):
 
     # the guided pass: what stops each never-matched point now, with every match as support
     config = net.config
-    gm = raw.guided if raw.guided is not None else guided.empty_guided()
+    gm = raw.guided if raw.guided is not None else guided_results.empty_guided()
     qi, ti = raw.query_idx, raw.train_idx
     n_net = int(np.sum(raw.passes == PASS_NETWORK))
     msim = np.r_[similarity_distance(desc_l, desc_r, qi[:n_net].astype(np.int32),
@@ -203,14 +203,15 @@ def scene_losses(scene, spec=""):
     g_counts = []
     for name in GUIDED_COLUMNS:
         if name.startswith("off pred"):
-            sel = loose == guided.STAGE_OFF_PREDICTION
+            sel = loose == guided_results.STAGE_OFF_PREDICTION
             sel &= pred_ok if name.endswith("(pred ok)") else ~pred_ok
         elif name.startswith("later: "):
-            sel = loose == guided.STAGE_ACCEPTED
-            sel &= strict == {"margin": guided.STAGE_MARGIN, "field": guided.STAGE_CONTINUITY,
-                              "accepted": guided.STAGE_ACCEPTED}[name[7:]]
+            sel = loose == guided_results.STAGE_ACCEPTED
+            sel &= strict == {"margin": guided_results.STAGE_MARGIN,
+                              "field": guided_results.STAGE_CONTINUITY,
+                              "accepted": guided_results.STAGE_ACCEPTED}[name[7:]]
         else:
-            sel = loose == guided.GUIDED_STAGES.index(name)
+            sel = loose == guided_results.GUIDED_STAGES.index(name)
         g_counts.append(int((never & sel).sum()))
     return (net_counts, g_counts, int(lost.sum()), int(wrong.sum()), int(sgbm_ok.sum()),
             int(c_full.sum()), int(np.isfinite(gt).sum()), time.perf_counter() - t0)

@@ -71,7 +71,8 @@ def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer
     """The row search of one query as ``hopmatch._kernels.guided.row_search`` documents it:
     ``(found, best, second, xr, similarity)``; ``found`` False when any test fails, and
     the values NaN when the search did not reach them. ``clip``: the columns are first
-    clipped to those whose windows (and one more column) lie in the right image; the
+    clipped to those whose windows (and one more column, and the rows' slides) lie in the
+    right image; the
     caller checks the rest of the kernel's ``OUTSIDE``. ``peaks``: the runner-up is the
     best ZNCC beyond the first rise on either side of the best column (past its valleys);
     else the best ZNCC at least ``shoulder`` columns from it. ``shear``: the right windows
@@ -81,8 +82,11 @@ def row_search_one(g_l, g_r, xl, yl, left_window, centre, y_offset, inner, outer
     yr = yl - y_offset
     c0 = math.floor(centre + 0.5)
     cols = list(range(c0 - outer - 1, c0 + outer + 2))
-    if clip:
-        cols = [c for c in cols if s // 2 <= c <= g_r.shape[1] - s // 2 - 2]
+    if clip:  # the slid rows too: left by up to ceil(|shear| r), right by floor + 1
+        r = s // 2
+        lo = r + math.ceil(abs(shear) * r)
+        hi = g_r.shape[1] - r - 2 - (math.floor(abs(shear) * r) + (shear != 0))
+        cols = [c for c in cols if lo <= c <= hi]
         if len(cols) < 3:
             nan = float("nan")
             return False, nan, nan, nan, nan

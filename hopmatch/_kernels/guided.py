@@ -229,9 +229,11 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
 
     ``clip``: the columns ``c`` are first clipped to those whose windows (and the refined
     window's one more column) lie inside the right image, ``rad <= c <= W - rad - 2``
-    (``rad`` = ``s // 2``), and the search goes on over the rest when it keeps at least
-    three columns (the seeds' search of the whole range: a right point beyond the image
-    is no candidate); otherwise a search leaving the image is :data:`OUTSIDE`.
+    (``rad`` = ``s // 2``; with ``shear``, ``rad + ceil(|shear| rad) <= c <= W - rad - 2 -
+    floor(|shear| rad) - 1``: the slid rows too), and the search goes on over the rest when
+    it keeps at least three columns (the seeds' search of the whole range: a right point
+    beyond the image is no candidate); otherwise a search leaving the image is
+    :data:`OUTSIDE`.
 
     ``peaks``: the runner-up is the best ZNCC beyond the valleys on either side of ``c*``
     (the columns past the first one, walking away from ``c*``, where the ZNCC rises again),
@@ -277,21 +279,21 @@ def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer,
         yr = yl - y_offset[q]
         if not (np.isfinite(yr) and np.isfinite(centre[q])):
             continue
+        g_y = 0.0 if shear is None else shear[q]
+        # how far the rows slide (:func:`_strip`): left, and right with the lerp's column
+        left_reach = int(np.ceil(abs(g_y) * rad))
+        right_reach = int(np.floor(abs(g_y) * rad)) + (g_y != 0.0)
         c0 = int(np.floor(centre[q] + 0.5))
         first = c0 - outer - 1
         last = c0 + outer + 1
-        if clip:  # the columns whose windows lie inside the image
-            first = max(first, rad)
-            last = min(last, w - rad - 2)
+        if clip:  # the columns whose (slid) windows lie inside the image
+            first = max(first, rad + left_reach)
+            last = min(last, w - rad - 2 - right_reach)
         n_span = last - first + 1
         x_lo = first - rad
         x_hi = last + rad + 1  # one more column for the refined window
         fy = np.floor(yr)
         y_top = int(fy) - rad
-        g_y = 0.0 if shear is None else shear[q]
-        # how far the rows slide (:func:`_strip`): left, and right with the lerp's column
-        left_reach = int(np.ceil(abs(g_y) * rad))
-        right_reach = int(np.floor(abs(g_y) * rad)) + (g_y != 0.0)
         if (n_span < 3 or x_lo - left_reach < 0 or x_hi + right_reach > w - 1
                 or y_top < 0 or y_top + s > h - 1):
             continue

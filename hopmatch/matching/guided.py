@@ -5,7 +5,8 @@ The network stays the judge. A left point that the network left unmatched gets a
 disparity only when the network would keep it: its matched neighbours (SPEC section 4's
 ``neighbour_width x neighbour_height`` window) predict a disparity (a local plane fitted to
 those near their median, or the median), a row search of the ZNCC of the gradient windows
-(eqs. 8-9; where that peak is too weak, of the grey-level windows: :class:`GreyFallback`)
+(eqs. 8-9; where that peak is too weak, of the grey-level windows:
+:class:`~hopmatch.matching.guided_results.GreyFallback`)
 finds a clear peak near it that searching back from the right image confirms,
 and the pair, alone in its row and column, would have a positive local field (eq. 12's
 bracket, with eq. 5's compatibility of eq. 10's ``X`` against every matched neighbour,
@@ -19,15 +20,25 @@ peaks are kept where they agree with one another) and propagates from those.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import fields
 
 import numpy as np
 
 from .._kernels import guided as _k
 from .._threads import map_chunks, row_order
 from ..feature.descriptor import gradient_windows
+from .guided_results import (
+    STAGE_CONTINUITY,
+    STAGE_FEW_NEIGHBOURS,
+    GreyFallback,
+    GuidedMatches,
+    GuidedSearch,
+    accepted_matches,
+    empty_guided,
+    search_stages,
+)
 from .neighbourhood import half_sides, nearest_of, neighbour_planes, query_neighbours
-from .similarity import EPS, match_distance, similarity_distance
+from .similarity import EPS, similarity_distance
 
 #: Largest distance (px) between the peak of the row search and the predicted disparity.
 GUIDED_RADIUS = 2.0
@@ -76,6 +87,11 @@ GUIDED_GRADIENT_LIMIT = 1.0
 #: disparity plane (its gradient along y; :func:`~hopmatch._kernels.guided.row_search`'s
 #: ``shear``): on a receding surface (a road, a floor) the right window is sheared.
 GUIDED_SHEAR = True
+#: The seeds' searches with sheared right windows (:data:`GUIDED_SHEAR`; the seeds have no
+#: plane yet), each a disparity gradient along y, after the search with square windows:
+#: a seed keeps the peak of the search that finds one with the highest ZNCC. They share
+#: :data:`GUIDED_SEED_WORK` with it, the strongest seeds first.
+GUIDED_SEED_SHEARS = (0.2,)
 #: Rounds of the guided pass (:func:`guided_rounds`): each propagates from every match
 #: found before it.
 GUIDED_ROUNDS = 3
@@ -137,22 +153,6 @@ GUIDED_FALLBACK = True
 GUIDED_FALLBACK_MIN_ZNCC = 0.85
 
 
-#: What :func:`guided_search` says of each left point it considered, in the order of the
-#: tests (``GuidedSearch.stage`` indexes it): accepted; fewer than ``min_support`` matched
-#: neighbours (in the largest window it may take them from); a window of the search leaves
-#: the image; the left window has no contrast; the best ZNCC within ``search`` px lies
-#: more than ``radius`` px from the prediction; it lies at the end of the searched range;
-#: its ZNCC is below ``min_zncc``; it is not ahead of the runner-up (:data:`GUIDED_SHOULDER`)
-#: by the uniqueness margin; searching back from the right position finds another left
-#: position (the left-right check); its field is not above ``min_field`` (continuity).
-GUIDED_STAGES = ("accepted", "few neighbours", "outside image", "flat window",
-                 "off prediction", "not a peak", "low ZNCC", "uniqueness margin",
-                 "left-right check", "continuity")
-(STAGE_ACCEPTED, STAGE_FEW_NEIGHBOURS, STAGE_OUTSIDE, STAGE_FLAT, STAGE_OFF_PREDICTION,
- STAGE_NOT_PEAK, STAGE_LOW_ZNCC, STAGE_MARGIN, STAGE_LEFT_RIGHT,
- STAGE_CONTINUITY) = range(len(GUIDED_STAGES))
-
-
 def _choose_csr(off_a, idx_a, off_b, idx_b, use_b):
     """One CSR list per query: query q's list from (off_b, idx_b) where ``use_b[q]``, else
     from (off_a, idx_a)."""
@@ -162,112 +162,6 @@ def _choose_csr(off_a, idx_a, off_b, idx_b, use_b):
     start = np.where(use_b, off_b[:-1] + len(idx_a), off_a[:-1])
     pos = np.repeat(start - off[:-1], cnt) + np.arange(off[-1])
     return off, np.concatenate((idx_a, idx_b)).astype(np.int32, copy=False)[pos]
-
-
-@dataclass(frozen=True)
-class GreyFallback:
-    """The images the guided row search falls back on where its peak on the feature image
-    G is too weak (:data:`GUIDED_FALLBACK`): the pair's grey levels, normalised as G's input is
-    (:func:`~hopmatch.feature.gradient.normalised_intensity`). The left windows of the
-    points searched again are cut from ``left`` when needed (eqs. 8-9 on grey levels,
-    :func:`~hopmatch.feature.descriptor.gradient_windows`, ``window_size`` a side).
-
-    Attributes
-    ----------
-    left, right : (H, W) float32 ndarray
-        The normalised grey images.
-    window_size : int
-        Side of the windows (odd; the descriptor size of G's windows).
-    """
-
-    left: np.ndarray
-    right: np.ndarray
-    window_size: int
-
-
-@dataclass(frozen=True)
-class GuidedMatches:
-    """Matches of the guided pass, one entry per match.
-
-    Attributes
-    ----------
-    query_idx : (K,) int32 ndarray
-        Left point of each guided match (one that the network left unmatched).
-    right_points : (K, 2) float32 ndarray
-        Its right position (x, y), sub-pixel: on the row the vertical offset predicts.
-    distances : (K,) float32 ndarray
-        ``1 / (1 + exp(u))`` of the match's field u, as the network's ``distances``.
-    fields : (K,) float64 ndarray
-        u: eq. 12's bracket for the guided pair alone in its row and column (> 0).
-    zncc, second : (K,) float64 ndarray
-        The ZNCC of the peak, and the best ZNCC at least two pixels from it in the wider
-        range (``zncc - second >= margin``).
-    similarity : (K,) float64 ndarray
-        Eq. 7's normalised distance of the pair (the network's similarity term).
-    """
-
-    query_idx: np.ndarray
-    right_points: np.ndarray
-    distances: np.ndarray
-    fields: np.ndarray
-    zncc: np.ndarray
-    second: np.ndarray
-    similarity: np.ndarray
-
-
-def empty_guided() -> GuidedMatches:
-    """A :class:`GuidedMatches` without matches."""
-    z = np.zeros(0)
-    return GuidedMatches(np.zeros(0, np.int32), np.zeros((0, 2), np.float32),
-                         np.zeros(0, np.float32), z, z, z, z)
-
-
-def accepted_matches(keep, q, xr, yr, u, best, second, sim) -> GuidedMatches:
-    """The searched left points ``q`` where ``keep`` holds, as :class:`GuidedMatches`: right
-    points ``(xr, yr)``, fields ``u`` (and their :func:`match_distance`), peak and second
-    ZNCC ``best``, ``second`` and eq. 7's distance ``sim``, each indexed like ``q``."""
-    acc = np.flatnonzero(keep)
-    return GuidedMatches(
-        query_idx=q[acc].astype(np.int32),
-        right_points=np.stack((xr[acc], yr[acc]), axis=1).astype(np.float32),
-        distances=match_distance(u[acc]).astype(np.float32), fields=u[acc],
-        zncc=best[acc], second=second[acc], similarity=sim[acc])
-
-
-def search_stages(status, best, min_zncc) -> np.ndarray:
-    """(Q,) int8: the :data:`GUIDED_STAGES` code of each row search's kernel status, the
-    kernel's "weak" peak split by its ZNCC ``best`` (below ``min_zncc``: low ZNCC; else the
-    uniqueness margin); a found peak is :data:`STAGE_ACCEPTED` (the field test follows)."""
-    codes = np.array([STAGE_ACCEPTED, STAGE_OUTSIDE, STAGE_FLAT, STAGE_OFF_PREDICTION,
-                      STAGE_NOT_PEAK, STAGE_LEFT_RIGHT, STAGE_MARGIN], dtype=np.int8)
-    out = codes[np.asarray(status, dtype=np.int64)]
-    out[(status == _k.WEAK) & ~(np.asarray(best) >= min_zncc)] = STAGE_LOW_ZNCC
-    return out
-
-
-@dataclass(frozen=True)
-class GuidedSearch:
-    """What :func:`guided_search` found: ``queries`` (Q,) int64, the left points it
-    considered; ``stage`` (Q,) int8, where each stopped (:data:`GUIDED_STAGES`);
-    ``matches``, the :class:`GuidedMatches` of those at :data:`STAGE_ACCEPTED`; and
-    ``predicted`` (Q,) float64, the disparity the search was centred on (NaN for the
-    points with too few neighbours)."""
-
-    queries: np.ndarray
-    stage: np.ndarray
-    matches: GuidedMatches
-    predicted: np.ndarray
-
-    @classmethod
-    def none(cls) -> GuidedSearch:
-        """A search that considered no left point."""
-        return cls(np.zeros(0, np.int64), np.zeros(0, np.int8), empty_guided(), np.zeros(0))
-
-    @classmethod
-    def of(cls, queries, stage) -> GuidedSearch:
-        """A search that accepted none of ``queries`` (stopped at ``stage``)."""
-        return cls(np.asarray(queries, np.int64), stage, empty_guided(),
-                   np.full(len(queries), np.nan))
 
 
 def guided_pass(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_offset,
@@ -363,7 +257,8 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     (the arguments are :func:`guided_pass`'s): a :class:`GuidedSearch` whose ``matches``
     are exactly what :func:`guided_pass` returns and whose ``stage`` says, for each left
     point the network left unmatched (those near ``query_idx[new_from:]`` only, with
-    ``new_from``), which test it failed first (:data:`GUIDED_STAGES`; with ``fallback``, the
+    ``new_from``), which test it failed first
+    (:data:`~hopmatch.matching.guided_results.GUIDED_STAGES`; with ``fallback``, the
     first it failed on ``g_l``, ``g_r``, unless the fallback's search found a peak: then
     accepted, or the field test), or :data:`STAGE_ACCEPTED`."""
     radius = GUIDED_RADIUS if radius is None else radius
@@ -499,12 +394,15 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     found so* (each but itself): a peak far from every match is kept only when enough
     peaks around it agree on one surface (the local plane of those neighbours carries
     them, as in :func:`guided_pass`).
+    Each seed is then searched again with right windows sheared by each of
+    :data:`GUIDED_SEED_SHEARS` and keeps the found peak of highest ZNCC.
     ``matched_similarity``: eq. 7's distance of each matched pair. ``max_work``: the most
-    ZNCC columns scored in all (each seed scores ``2 outer + 3``, ``outer`` half the range
-    plus one); beyond it only the first seeds in the order of ``pts_l`` (the detector's:
-    strongest first) are searched, at least one. None for the module's ``GUIDED_SEED_*``
-    values. Returns them as :class:`GuidedMatches` (empty when the range is not
-    resolved)."""
+    ZNCC columns scored in all (each search of a seed scores ``2 outer + 3``, ``outer``
+    half the range plus one); beyond it only the first seeds in the order of ``pts_l``
+    (the detector's: strongest first) are searched, at least one, and the sheared searches
+    take the first seeds again with what the square one left. None for the module's
+    ``GUIDED_SEED_*`` values. Returns them as :class:`GuidedMatches` (empty when the range
+    is not resolved)."""
     min_zncc = GUIDED_SEED_ZNCC if min_zncc is None else min_zncc
     margin = GUIDED_SEED_MARGIN if margin is None else margin
     min_field = GUIDED_SEED_FIELD if min_field is None else min_field
@@ -528,15 +426,34 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     if len(q) == 0 or d_lo > d_hi:
         return empty_guided()
     outer = int(np.ceil(0.5 * (d_hi - d_lo))) + 1
-    q = q[:max(1, int(max_work) // (2 * outer + 3))]  # the strongest within the budget
+    columns = 2 * outer + 3  # per seed and search
+    q = q[:max(1, int(max_work) // columns)]  # the strongest within the budget
     centre = np.ascontiguousarray(pts_l[q, 0].astype(np.float64) - 0.5 * (d_lo + d_hi))
     yoff = np.ascontiguousarray(np.asarray(y_offset, dtype=np.float64)[q])
-    status, best, second, xr, sim = map_chunks(
-        lambda qs, cs, ys: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys, float(outer),
-                                         outer, GUIDED_BACK, float(min_zncc), float(margin),
-                                         EPS, float(config.gain_tolerance), GUIDED_SEED_CLIP,
-                                         False, int(GUIDED_SHOULDER)),
-        (q, centre, yoff), threads, order=row_order(pts_l[q, 1]))
+
+    def search(n, shear):
+        """The row search of the first ``n`` seeds, right windows sheared by ``shear``."""
+        return map_chunks(
+            lambda qs, cs, ys, ss: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys,
+                                                 float(outer), outer, GUIDED_BACK,
+                                                 float(min_zncc), float(margin), EPS,
+                                                 float(config.gain_tolerance),
+                                                 GUIDED_SEED_CLIP, False,
+                                                 int(GUIDED_SHOULDER), ss),
+            (q[:n], centre[:n], yoff[:n], np.full(n, float(shear))), threads,
+            order=row_order(pts_l[q[:n], 1]))
+
+    status, best, second, xr, sim = search(len(q), 0.0)
+    left = int(max_work) - len(q) * columns
+    for shear in GUIDED_SEED_SHEARS:  # the strongest seeds again, within what is left
+        n = min(len(q), max(0, left) // columns)
+        left -= n * columns
+        if n == 0:
+            break
+        run = search(n, shear)
+        take = (run[0] == _k.FOUND) & ((status[:n] != _k.FOUND) | (run[1] > best[:n]))
+        for ours, theirs in zip((status, best, second, xr, sim), run):
+            ours[:n][take] = theirs[take]
     f = np.flatnonzero(status == _k.FOUND)
     if len(f) == 0:
         return empty_guided()

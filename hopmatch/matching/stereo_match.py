@@ -24,7 +24,8 @@ from . import guided, halves
 from .confidence import confidence_distances, fields_of_distances
 from .diagnostics import LooksUnrectifiedError, warn_if_no_keypoints
 from .geometry import EpipolarGeometry, GeometryWarning, transform_points
-from .guided import GreyFallback, GuidedMatches, guided_pass, guided_rounds
+from .guided import guided_pass, guided_rounds
+from .guided_results import GreyFallback, GuidedMatches
 from .matcher import HopfieldMatcher, dmatches
 from .network import NetworkResult, PairInfo, match_pair
 from .params import MatcherConfig, matcher_config
@@ -477,7 +478,7 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
 
 
 def grey_fallback(grays, gradients, window_values: int) -> GreyFallback | None:
-    """The guided rounds' :class:`~.guided.GreyFallback` of a pair whose (left, right)
+    """The guided rounds' :class:`~.guided_results.GreyFallback` of a pair whose (left, right)
     grey images are ``grays`` and feature images ``gradients``, its points described by
     windows of ``window_values`` values (a square side's square); None
     without :data:`~.guided.GUIDED_FALLBACK`, or when the feature images are the

@@ -243,11 +243,13 @@ DENSE_DOT_AREA = 150.0
 def _dots(img, pts: np.ndarray, colours: np.ndarray, radius: int, dx: int = 0,
           rim: bool = True) -> None:
     """Filled dots, with a dark rim (visible on light and dark backgrounds alike) when
-    ``rim``."""
+    ``rim``; without it (dense matches) drawn crisp, not anti-aliased, so that each covers
+    fewer pixels of the image (a radius-1 dot: 5 pixels instead of a blurred 3 x 3)."""
+    line = cv2.LINE_AA if rim else cv2.LINE_8
     for (x, y), c in zip(np.rint(pts).astype(np.int64).tolist(), colours.tolist()):
         if rim:
             cv2.circle(img, (x + dx, y), radius + 1, (0, 0, 0), -1, cv2.LINE_AA)
-        cv2.circle(img, (x + dx, y), radius, _colour(c), -1, cv2.LINE_AA)
+        cv2.circle(img, (x + dx, y), radius, _colour(c), -1, line)
 
 
 def _wrap(text: str, width: int, scale: float = _FONT_SCALE) -> list[str]:

@@ -27,8 +27,15 @@ from hopmatch.matching.guided import (
     GUIDED_RADIUS,
     GUIDED_SEED_FIELD,
     GUIDED_SEED_MARGIN,
+    GUIDED_SEED_SHEARS,
     GUIDED_SEED_ZNCC,
     GUIDED_SHOULDER,
+    guided_pass,
+    guided_rounds,
+    guided_search,
+    seed_pass,
+)
+from hopmatch.matching.guided_results import (
     GUIDED_STAGES,
     STAGE_ACCEPTED,
     STAGE_CONTINUITY,
@@ -37,10 +44,6 @@ from hopmatch.matching.guided import (
     STAGE_LOW_ZNCC,
     STAGE_MARGIN,
     STAGE_OUTSIDE,
-    guided_pass,
-    guided_rounds,
-    guided_search,
-    seed_pass,
 )
 from hopmatch.matching.neighbourhood import nearest_of
 from hopmatch.matching.params import matcher_config
@@ -588,7 +591,11 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test(monkeypatch
     sd = seed_pass(pl, pr, dl, gl, gr, qi, ti, yoff, config, msim)
     assert len(sd.query_idx) > 10 and not np.isin(sd.query_idx, qi).any()
     assert (pl[sd.query_idx, 0] > 100).sum() > 10  # far from every match
-    np.testing.assert_allclose(pl[sd.query_idx, 0] - sd.right_points[:, 0], 6.0, atol=0.3)
+    # within a third of a pixel (the search's parabola), but for the odd seed whose
+    # sheared search (GUIDED_SEED_SHEARS) peaks higher on this fronto-parallel pair and
+    # places it (0.31 px off, one seed of 468 when written; the refinement follows)
+    err = np.abs(pl[sd.query_idx, 0] - sd.right_points[:, 0] - 6.0)
+    assert err.max() <= 0.4 and np.mean(err <= 0.3) >= 0.99
     lo, hi = float(config.min_disparity or 0.0), float(config.max_disparity)
     outer = int(np.ceil(0.5 * (hi - lo))) + 1
     # the reference search of every unmatched left point over the whole range
@@ -609,13 +616,17 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test(monkeypatch
         if not (np.floor(x) - GUIDED_BACK - rad >= 0
                 and np.floor(x) + GUIDED_BACK + rad + 1 <= w - 1):
             continue  # the back search's windows would leave the image
-        ok, _, _, xr, sim = ng.row_search_one(gl, gr, x, y, dl[i], x - 0.5 * (lo + hi), 0.0,
-                                              float(outer), outer, GUIDED_BACK,
-                                              GUIDED_SEED_ZNCC, GUIDED_SEED_MARGIN,
-                                              config.gain_tolerance, clip=True,
-                                              shoulder=GUIDED_SHOULDER)
-        if ok:
-            peaks.append((i, xr, sim))
+        # square windows, then each of GUIDED_SEED_SHEARS: the found peak of highest ZNCC
+        found = []
+        for shear in (0.0,) + tuple(GUIDED_SEED_SHEARS):
+            ok, best, _, xr, sim = ng.row_search_one(
+                gl, gr, x, y, dl[i], x - 0.5 * (lo + hi), 0.0, float(outer), outer,
+                GUIDED_BACK, GUIDED_SEED_ZNCC, GUIDED_SEED_MARGIN, config.gain_tolerance,
+                clip=True, shoulder=GUIDED_SHOULDER, shear=shear)
+            if ok and (not found or best > found[0]):
+                found = [best, xr, sim]
+        if found:
+            peaks.append((i, found[1], found[2]))
     pk = np.array([p[0] for p in peaks])
     ml = np.r_[pl[qi], pl[pk]].astype(np.float32)
     # the peaks as neighbours: right points in float32, as every matched point
@@ -656,8 +667,10 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test(monkeypatch
 def test_seeds_beyond_the_work_budget_are_the_weakest_left_out(monkeypatch):
     """seed_pass with ``max_work``: it searches the first seeds in the order of the left
     points (the detector's, strongest first) whose whole-range searches (``2 outer + 3``
-    columns each) fit in the budget, at least one; with a budget they all fit in, it
-    searches every seed and finds what it finds without a budget."""
+    columns each) fit in the budget, at least one, with square windows; then, with what
+    is left, the first seeds again with each of ``GUIDED_SEED_SHEARS``; with a budget
+    they all fit in, it searches every seed and finds what it finds without a budget."""
+    monkeypatch.setattr(guided_module, "GUIDED_SEED_SHEARS", (0.2, 0.35))
     pl, dl, gl, pr, dr, gr, net = _network_case(rows=64)
     config = net.config
     keep = pl[net.query_idx, 0] < 60  # many seeds: the points right of the strip
@@ -665,38 +678,53 @@ def test_seeds_beyond_the_work_budget_are_the_weakest_left_out(monkeypatch):
     msim = similarity_distance(dl, dr, qi.astype(np.int32), ti.astype(np.int32),
                                gain_tolerance=config.gain_tolerance)
     yoff = np.zeros(len(pl))
-    searched = []
+    searched = []  # (queries, shear) of each search
     search = _k.row_search
 
     def recording(g_l, g_r, pts_l, desc_l, queries, *args):
-        searched.append(np.array(queries))
+        shear = args[-1]
+        assert len(np.unique(shear)) <= 1
+        searched.append((np.array(queries), float(shear[0]) if len(shear) else None))
         return search(g_l, g_r, pts_l, desc_l, queries, *args)
 
     monkeypatch.setattr(_k, "row_search", recording)
 
     def seeds(max_work):
+        """The seeds, and the sorted queries of each shear searched, in order."""
         searched.clear()
         got = seed_pass(pl, pr, dl, gl, gr, qi, ti, yoff, config, msim, max_work=max_work)
-        return got, np.sort(np.concatenate(searched))
+        shears = sorted({s for _, s in searched if s is not None}, key=[
+            0.0, 0.2, 0.35].index)
+        return got, [(s, np.sort(np.concatenate([q for q, t in searched if t == s])))
+                     for s in shears]
 
     lo, hi = float(config.min_disparity or 0.0), float(config.max_disparity)
     span = 2 * (int(np.ceil(0.5 * (hi - lo))) + 1) + 3
-    every, all_q = seeds(10**12)
+    every, runs = seeds(10**12)
+    assert [s for s, _ in runs] == [0.0, 0.2, 0.35]
+    all_q = runs[0][1]
+    assert all(np.array_equal(q, all_q) for _, q in runs)
     assert len(all_q) > 20 and len(every.query_idx) > 5
-    for fits in (len(all_q), len(all_q) + 7):  # every seed fits: the same seeds
-        got, q = seeds(fits * span)
-        np.testing.assert_array_equal(q, all_q)
+    for fits in (3 * len(all_q), 3 * len(all_q) + 7):  # every search fits: the same seeds
+        got, runs = seeds(fits * span)
+        assert [s for s, _ in runs] == [0.0, 0.2, 0.35]
         for f in ("query_idx", "right_points"):
             np.testing.assert_array_equal(getattr(got, f), getattr(every, f))
         # the fields to a few units in the last place: once (OpenCV 5 environment of a
         # clean-clone CI run, 2026-12-04) two calls on the same seeds differed by 1.4e-14
         # in 37 of 381 fields; the cause is not found (session note, issue 21)
         np.testing.assert_allclose(got.fields, every.fields, rtol=1e-12, atol=0.0)
-    k = len(all_q) // 3
-    for budget, n in ((k * span, k), (k * span + span - 1, k), (span - 1, 1), (0, 1)):
-        got, q = seeds(budget)
-        np.testing.assert_array_equal(q, all_q[:n])  # the strongest n
-        assert np.isin(got.query_idx, all_q[:n]).all()
+    k, n = len(all_q) // 3, len(all_q)
+    for budget, want in (
+            (k * span, [(0.0, k)]), (k * span + span - 1, [(0.0, k)]), (span - 1, [(0.0, 1)]),
+            (0, [(0.0, 1)]), (n * span, [(0.0, n)]),
+            ((n + k) * span + 3, [(0.0, n), (0.2, k)]),
+            ((2 * n + k) * span, [(0.0, n), (0.2, n), (0.35, k)])):
+        got, runs = seeds(budget)
+        assert [(s, len(q)) for s, q in runs] == want, budget
+        for _, q in runs:
+            np.testing.assert_array_equal(q, all_q[:len(q)])  # the strongest
+        assert np.isin(got.query_idx, all_q[:want[0][1]]).all()
 
 
 def test_a_sheared_search_follows_a_receding_surface():
