@@ -166,8 +166,10 @@ def eval_(ctx, scenes, methods, out, docs, draw, repeat):
                 status(f"drawing {scene}: {method}")
                 file = f"matches_{_scene_file_name(scene)}_{method}.png"
                 img_out.add_image(file, cmp.draw_row(by_key[scene, method], scene_of[scene]))
-                pictures[f"img/{file}"] = (f"{method} on {scene}: correct within 1 px green, "
-                                           "wrong red, no ground truth grey")
+                pictures[f"img/{file}"] = (
+                    f"{method} on {scene}: every match a dot coloured by disparity, a "
+                    "spread-out subset as lines, a magenta cross on each wrong one (beyond "
+                    "1 px)")
             doc_out.add_text("results.md", cmp.format_results_doc(
                 rows, loaded, pictures=pictures, curves=curve_rows,
                 machine=cmp.machine_description(),

@@ -91,15 +91,21 @@ def correct_flags(row: Mapping, tolerance: float = 1.0):
 
 
 def draw_row(row: Mapping, scene: StereoScene, tolerance: float = 1.0) -> np.ndarray:
-    """The matches of one row drawn with ``cv2.drawMatches``: green correct at
-    ``tolerance`` px, red wrong, grey without ground truth. Returns a BGR image."""
-    from ..viz import draw_matches
+    """The matches of one row as :func:`hopmatch.viz.draw_match_overview` draws them:
+    every match a dot coloured by its disparity on the scale of the scene's ground truth
+    (0 to its largest disparity), a spread-out subset as lines, the wrong ones at
+    ``tolerance`` px (among those with ground truth) marked with a magenta cross, and a
+    caption with the counts below. Returns a BGR image ``(H + caption, 2 W, 3)``."""
+    from ..viz import draw_match_overview
 
     res = row["result"]
     correct, known = correct_flags(row, tolerance)
     pairs = np.repeat(np.arange(len(res.left_pts))[:, None], 2, axis=1)
-    return draw_matches(scene.left, scene.right, res.left_pts, res.right_pts, pairs,
-                        correct, known=known)
+    truth = np.asarray(scene.disparity)[scene.valid]
+    hi = float(np.max(truth)) if truth.size else None
+    return draw_match_overview(scene.left, scene.right, res.left_pts, res.right_pts, pairs,
+                               correct=correct, known=known,
+                               min_disparity=None if hi is None else 0.0, max_disparity=hi)
 
 
 def errors_by_method(rows: Iterable[Mapping], scene: str | None = None) -> dict:

@@ -17,10 +17,16 @@ class TestTablesOnTsukuba:
         scene, rows = tsukuba_rows
         pic = compare.draw_row(rows[0], scene)
         h, w = scene.shape
-        assert pic.shape == (h, 2 * w, 3) and pic.dtype == np.uint8
+        # the overview: both images side by side, a caption below
+        assert pic.shape[1:] == (2 * w, 3) and pic.shape[0] > h and pic.dtype == np.uint8
         correct, known = compare.correct_flags(rows[0])
         assert int(correct.sum()) == rows[0]["correct@1"]
         assert int(known.sum()) == rows[0]["scored"]
+        # a magenta cross (viz.overview.WRONG) on each wrong match with ground truth, and
+        # none without wrong matches
+        wrong = known & ~correct
+        magenta = np.all(pic[:h] == viz.overview.WRONG, axis=2)
+        assert magenta.any() == bool(wrong.any())
 
     def test_tables(self, tsukuba_rows, tmp_path):
         _, rows = tsukuba_rows
