@@ -444,10 +444,10 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
             order=row_order(pts_l[q[:n], 1]))
 
     status, best, second, xr, sim = search(len(q), 0.0)
-    left = int(max_work) - len(q) * columns
+    budget_left = int(max_work) - len(q) * columns
     for shear in GUIDED_SEED_SHEARS:  # the strongest seeds again, within what is left
-        n = min(len(q), max(0, left) // columns)
-        left -= n * columns
+        n = min(len(q), max(0, budget_left) // columns)
+        budget_left -= n * columns
         if n == 0:
             break
         run = search(n, shear)
