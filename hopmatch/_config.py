@@ -5,6 +5,14 @@
 - Kernels whose results are compared bit-for-bit with a NumPy reference use
   ``jit(exact=True)``: no fastmath at all, so the order of floating-point operations is the
   one written in the source.
+- So do kernels with a loop that writes a buffer while it sums floats. With ``reassoc``
+  LLVM vectorises such a sum only behind a runtime check that the buffers the loop reads
+  and writes lie apart in memory, and runs the scalar loop, which sums in another order,
+  when they do not: the last bits of the result then depend on where the allocator put
+  the kernel's scratch arrays, which differs between calls (and more so between threads).
+  The guided pass's row search did this (fields 1 ulp apart between runs); the test
+  ``tests/test_determinism.py::test_no_kernel_sums_in_a_loop_vectorised_behind_a_memory_check``
+  scans every kernel's compiled code for such a loop.
 - ``cache=True`` writes compiled machine code next to the package (or to
   ``NUMBA_CACHE_DIR``); set ``HOPMATCH_NUMBA_CACHE=0`` to turn it off. When the package
   folder is read-only (a system-wide install) and ``NUMBA_CACHE_DIR`` is unset, caching is

@@ -1,6 +1,8 @@
 """Determinism and thread safety: the same input and seed give identical keypoints and
-matches across repeated calls, separate processes and concurrent threads; and the kernels
-run once under NUMBA_BOUNDSCHECK=1 (the CI run that catches out-of-bounds reads)."""
+matches across repeated calls, separate processes and concurrent threads; no compiled
+kernel sums floats in a loop whose vectorisation depends on where its buffers lie in
+memory; and the kernels run once under NUMBA_BOUNDSCHECK=1 (the CI run that catches
+out-of-bounds reads)."""
 
 from __future__ import annotations
 
@@ -198,3 +200,62 @@ def test_kernels_under_numba_boundscheck(tmp_path):
                           text=True, env=env, cwd=str(tmp_path), timeout=900)
     assert proc.returncode == 0, proc.stderr[-4000:]
     assert "BOUNDSCHECK OK" in proc.stdout
+
+
+REDUCTIONS_SCRIPT = textwrap.dedent("""
+    import importlib, json, pkgutil, sys
+    import numba, numpy as np
+    sys.path.insert(0, sys.argv[1])
+    from vector_reductions import memory_dependent_reductions
+    import hopmatch
+    import hopmatch._kernels as kernels
+    from hopmatch._config import CACHE
+    assert not CACHE  # compiled here: Numba inspects no code loaded from its cache
+
+    def stores_and_sums(a, b, out):  # the pattern the scan must find (control)
+        total = 0.0
+        for i in range(a.shape[0]):
+            out[i] = 2.0 * a[i]
+            total += out[i] * b[i]
+        return total
+
+    x = np.ones(64)
+    control = {}
+    for fastmath in (True, False):
+        k = numba.njit(fastmath=fastmath)(stores_and_sums)
+        k(x, x, np.empty(64))
+        control[str(fastmath)] = len(memory_dependent_reductions(k.inspect_llvm(k.signatures[0])))
+    hopmatch.warmup(1)
+    found, scanned = [], []
+    for info in pkgutil.iter_modules(kernels.__path__):
+        module = importlib.import_module("hopmatch._kernels." + info.name)
+        for name, f in sorted(vars(module).items()):
+            if isinstance(f, numba.core.registry.CPUDispatcher) and f.__module__ == module.__name__:
+                for sig in f.signatures:
+                    scanned.append(info.name + "." + name)
+                    found += [[info.name + "." + name, loop] for _, loop in
+                              memory_dependent_reductions(f.inspect_llvm(sig))]
+    print(json.dumps({"control": control, "scanned": scanned, "found": found}))
+""")
+
+
+def test_no_kernel_sums_in_a_loop_vectorised_behind_a_memory_check(tmp_path):
+    """Every kernel compiled fresh (as a first run does), its LLVM IR scanned for a float
+    reduction in a vector loop entered only when a runtime check finds its buffers apart
+    (tests/vector_reductions.py): there the sum's order, and its last bits, would depend
+    on the heap's layout from one call to the next (as the guided pass's row search did
+    before it was compiled exact: fields 1 ulp apart between runs, with two threads). The
+    scan finds the pattern in a fastmath control kernel and not in its exact twin."""
+    env = {**os.environ, "HOPMATCH_NUMBA_CACHE": "0", "HOPMATCH_COMPILE_HELPER": "0",
+           "HOPMATCH_COMPILE_NOTICE": "0", "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache")}
+    for name in ("NUMBA_DISABLE_JIT", "NUMBA_BOUNDSCHECK"):
+        env.pop(name, None)
+    proc = subprocess.run([sys.executable, "-c", REDUCTIONS_SCRIPT,
+                           os.path.join(ROOT, "tests")], capture_output=True, text=True,
+                          env=env, cwd=str(tmp_path), timeout=900)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    report = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert report["control"] == {"True": 1, "False": 0}
+    assert {"guided.row_search", "refine.refine_rows", "similarity.normalised_difference",
+            "network.run_network", "deriche.deriche_pass"} <= set(report["scanned"])
+    assert report["found"] == []

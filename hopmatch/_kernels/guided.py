@@ -200,7 +200,7 @@ def _zncc_bilinear(a, sa2, g, x, y, s):
     return sab / np.sqrt(sa2 * var)
 
 
-@jit
+@jit(exact=True)  # its loops sum while they write (hopmatch._config)
 def row_search(g_l, g_r, pts_l, desc_l, queries, centre, y_offset, inner, outer, back,
                min_zncc, margin, eps, gain_tol=1.0, clip=False, peaks=False, shoulder=2,
                shear=None):

@@ -157,7 +157,7 @@ def _fits(xl, yl, x0, y, rm, reach, pad, hl, wl, h, w):
                 or np.floor(y) - rm - pad + 1 < 0 or np.floor(y) + rm + pad > h - 1)
 
 
-@jit
+@jit(exact=True)  # its loops sum while they write (hopmatch._config)
 def refine_rows(img_l, img_r, left, xr, yr, gx, gy, radius, min_radius, sigma, cubic, step,
                 levels, iterations, tol, max_shift):
     """Sub-pixel x of each match's right window on its row: the peak of the ZNCC between
