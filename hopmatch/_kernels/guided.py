@@ -69,10 +69,21 @@ def query_neighbours(queries, matched, half_w, half_h):
     return offsets, idx[:p]
 
 
+#: Longest neighbour list whose median :func:`neighbour_medians` finds by counting ranks
+#: (branch-free, n**2 compares that vectorise); longer lists are sorted by insertion.
+RANK_MEDIAN_MAX = 64
+
+
 @jit
 def neighbour_medians(offsets, idx, values):
     """Median of ``values[idx[offsets[q]:offsets[q + 1]]]`` for each q (NaN when empty;
-    the mean of the two middle values for an even count, as ``np.median``)."""
+    the mean of the two middle values for an even count, as ``np.median``). The values are
+    finite (disparities of matches).
+
+    A list of at most :data:`RANK_MEDIAN_MAX` values has its middle ones found by their
+    ranks (value i's rank: the values below it, and the equal ones before it), which
+    costs no mispredicted branches; a longer one is sorted by insertion. The middle
+    values, and so the result, are the same either way."""
     nq = offsets.shape[0] - 1
     out = np.full(nq, np.nan)
     longest = 0
@@ -84,14 +95,30 @@ def neighbour_medians(offsets, idx, values):
         c = offsets[q + 1] - a
         if c == 0:
             continue
-        for t in range(c):  # insertion sort: the lists are short
+        h = c // 2
+        if c <= RANK_MEDIAN_MAX:
+            for t in range(c):
+                buf[t] = np.float64(values[idx[a + t]])
+            below = 0.0  # the values of ranks h - 1 and h
+            middle = 0.0
+            for i in range(c):
+                v = buf[i]
+                rank = 0
+                for j in range(c):
+                    rank += (buf[j] < v) | ((buf[j] == v) & (j < i))
+                if rank == h:
+                    middle = v
+                elif rank == h - 1:
+                    below = v
+            out[q] = middle if c % 2 else 0.5 * (below + middle)
+            continue
+        for t in range(c):  # insertion sort
             v = np.float64(values[idx[a + t]])
             u = t
             while u > 0 and buf[u - 1] > v:
                 buf[u] = buf[u - 1]
                 u -= 1
             buf[u] = v
-        h = c // 2
         out[q] = buf[h] if c % 2 else 0.5 * (buf[h - 1] + buf[h])
     return out
 
@@ -133,8 +160,9 @@ def _correlate(a, sa2, strip, s, span, acc, colsum, colsq, z):
     ``m < span``; -1 where that window is flat.
 
     The cross sums run along the strip's rows (one multiply-add per window and pixel, in
-    loops over ``m`` that vectorise); the windows' sums and sums of squares slide over
-    column sums.
+    loops over ``m`` that vectorise, three columns of ``a`` per loop so that ``acc`` is
+    read and written a third as often; each ``acc[m]`` still adds its terms in column
+    order); the windows' sums and sums of squares slide over column sums.
     """
     n = s * s
     ncols = span + s - 1
@@ -149,10 +177,23 @@ def _correlate(a, sa2, strip, s, span, acc, colsum, colsq, z):
             v = row[x]
             colsum[x] += v
             colsq[x] += v * v
-        for c in range(s):
+        c = 0
+        while c + 3 <= s:
+            c0 = a[r * s + c]
+            c1 = a[r * s + c + 1]
+            c2 = a[r * s + c + 2]
+            for m in range(span):
+                v = acc[m]
+                v += c0 * row[m + c]
+                v += c1 * row[m + c + 1]
+                v += c2 * row[m + c + 2]
+                acc[m] = v
+            c += 3
+        while c < s:
             coef = a[r * s + c]
             for m in range(span):
                 acc[m] += coef * row[m + c]
+            c += 1
     sb = 0.0
     sbb = 0.0
     for c in range(s - 1):

@@ -85,6 +85,14 @@ def test_neighbour_medians_are_np_median():
     assert np.isnan(med[0])
     for q in range(1, 4):
         assert med[q] == np.median(values[idx[off[q]:off[q + 1]]])
+    # lists on both sides of RANK_MEDIAN_MAX (ranks counted, or sorted), with ties
+    sizes = np.r_[np.arange(0, 70), _k.RANK_MEDIAN_MAX + np.arange(-2, 3), 150, 257]
+    off = np.r_[0, np.cumsum(sizes)].astype(np.int64)
+    values = np.r_[RNG.normal(size=300), RNG.integers(0, 4, 300).astype(np.float64)]
+    idx = RNG.integers(0, len(values), off[-1]).astype(np.int32)
+    med = _k.neighbour_medians(off, idx, values)
+    want = [np.median(values[idx[a:b]]) if b > a else np.nan for a, b in zip(off, off[1:])]
+    np.testing.assert_array_equal(med, want)
 
 
 def _search_case(seed=3, shift=7.3):
