@@ -14,7 +14,8 @@ changed row label).
   profile's function rows, and ``docs/performance.md`` must be left as it was.
 - The other scripts: the lines and table columns that docs/robustness.md,
   docs/parameters.md, docs/pipelines.md, docs/cluster.md and docs/results.md quote.
-- ``chessboard_dy.py`` and ``rectification_check.py --chessboards`` need ``../shared/data``
+- ``chessboard_dy.py``, ``chessboard_geometry.py`` and ``rectification_check.py
+  --chessboards`` need ``../shared/data``
   and skip without it; the scripts whose scene list grows with it (``tune.py``,
   ``rectification_check.py``, ``fingerprint.py``) run on motorcycle alone then.
 """
@@ -321,6 +322,17 @@ def test_chessboard_dy_smoke(shared_data, args):
         rf"matches with \|dy\| <= 1 px: \d+: {counts}",
         rf"matches with \|dy\| > 1 px: \d+: {counts}",
     )
+
+
+def test_chessboard_geometry_smoke(shared_data):
+    """The session notes of issue 18 quote its columns."""
+    out = run_script("chessboard_geometry.py")
+    pair = (r"\| 0[12] \| (aligned|rectified|epipolar|-) \| \w+ \| [\d.]+% of \d+ \| "
+            r"[\d.]+ / [\d.]+ \| [\d.]+ / [\d.]+ \| -?[\d.]+ \.\. -?[\d.]+ \| "
+            r"-?[\d.]+ \.\. -?[\d.]+ \|")
+    assert_lines(out, r"## Raw chessboard pairs: the geometry match_stereo\(rectified=False\) "
+                      r"settles on", pair)
+    assert len(re.findall(pair, out)) == 2
 
 
 def test_dask_batch_smoke():
