@@ -38,7 +38,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import add_smoke_option, single_thread  # noqa: E402
-from unrectified import PATTERN, calibration, on_lines  # noqa: E402
+from unrectified import board_corners, calibration, on_lines  # noqa: E402
 
 import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
@@ -46,16 +46,12 @@ from hopmatch.matching.geometry import estimate_geometry, transform_points  # no
 from hopmatch.matching.unrectified import aligned_frame  # noqa: E402
 from hopmatch.stereo import epipolar_distances  # noqa: E402
 
-CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3)
-
 
 def corners(gray):
-    """The board's inner corners (54, 2) float64, or None when not found."""
-    found, c = cv2.findChessboardCorners(gray, PATTERN)
-    if not found:
-        return None
-    return cv2.cornerSubPix(gray, c, (11, 11), (-1, -1), CRITERIA).reshape(-1, 2).astype(
-        np.float64)
+    """The board's inner corners (54, 2) float64 (:func:`unrectified.board_corners`), or
+    None when not found."""
+    c = board_corners(gray)
+    return None if c is None else c.reshape(-1, 2).astype(np.float64)
 
 
 def spread(values) -> str:

@@ -292,6 +292,16 @@ def perturbed(names, perturbations, verge=0.0) -> None:
           f"{np.nanmedian(f_medians):.2f} px, max {np.nanmax(f_medians):.2f} px\n")
 
 
+def board_corners(gray):
+    """The chessboard's inner corners in the grey image (``cv2.findChessboardCorners``,
+    refined by ``cv2.cornerSubPix``): (N, 1, 2) float32, or None when not found."""
+    found, c = cv2.findChessboardCorners(gray, PATTERN)
+    if not found:
+        return None
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3)
+    return cv2.cornerSubPix(gray, c, (11, 11), (-1, -1), crit)
+
+
 def calibration(folder):
     """StereoCalibration of the chessboard pairs in ``folder`` and their ids."""
     ids = sorted(m.group(1) for p in folder.glob("left*.jpg")
@@ -299,16 +309,14 @@ def calibration(folder):
     grid = np.zeros((PATTERN[0] * PATTERN[1], 3), np.float32)
     grid[:, :2] = np.mgrid[0:PATTERN[0], 0:PATTERN[1]].T.reshape(-1, 2)
     obj, lp, rp, used, size = [], [], [], [], None
-    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3)
     for i in ids:
         gl = cv2.imread(str(folder / f"left{i}.jpg"), cv2.IMREAD_GRAYSCALE)
         gr = cv2.imread(str(folder / f"right{i}.jpg"), cv2.IMREAD_GRAYSCALE)
-        fl, cl = cv2.findChessboardCorners(gl, PATTERN)
-        fr, cr = cv2.findChessboardCorners(gr, PATTERN)
-        if fl and fr:
+        cl, cr = board_corners(gl), board_corners(gr)
+        if cl is not None and cr is not None:
             obj.append(grid)
-            lp.append(cv2.cornerSubPix(gl, cl, (11, 11), (-1, -1), crit))
-            rp.append(cv2.cornerSubPix(gr, cr, (11, 11), (-1, -1), crit))
+            lp.append(cl)
+            rp.append(cr)
             used.append(i)
         size = gl.shape[::-1]
     _, k1, d1, _, _ = cv2.calibrateCamera(obj, lp, size, None, None)
