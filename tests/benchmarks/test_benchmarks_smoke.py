@@ -333,6 +333,16 @@ def test_chessboard_geometry_smoke(shared_data):
     assert_lines(out, r"## Raw chessboard pairs: the geometry match_stereo\(rectified=False\) "
                       r"settles on", pair)
     assert len(re.findall(pair, out)) == 2
+    area = (r"\| 0[12] \| [\d.]+% of \d+ \| ([\d.]+% of \d+|0 of 0) \| "
+            r"([+-][\d.]+ \(\d+\)|-) \| ([+-][\d.]+ \(\d+\)|-) \|")
+    assert_lines(out, r"## Raw chessboard pairs: the calibrated lines outside and inside the "
+                      r"calibrated area",
+                 r"calibrated area: the hull of the board corners of \d+ pairs, \d+% of the "
+                 r"left image",
+                 r"pooled: match_stereo [\d.]+% of \d+ on lines outside the calibrated area, "
+                 r"[\d.]+% of \d+ inside; SIFT median signed distance [+-][\d.]+ px outside "
+                 r"\(\d+\), [+-][\d.]+ px inside \(\d+\)")
+    assert len(re.findall(area, out)) == 2
 
 
 def test_dask_batch_smoke():
