@@ -25,6 +25,13 @@ rotated 5 degrees, shifted 30 px down and scaled 1.03 (``cv2.warpAffine``); with
 ``../shared/data/opencv_stereo_calib`` (calibrated as in ``examples/stereo_calibration.py``)
 instead: low-texture scenes where many look-alikes are wrong.
 
+``--costs`` times (best of 3, one thread) the three searches for each left point's clear best
+look-alike, on each scene's default keypoints over a quarter of the width: the wide check
+(``clear_look_alikes`` in 64 rows, 300 left points, what ``wide_rectification_evidence``
+does at most), the stereo-pair check (``stereo_pair_evidence``) and the two-dimensional
+bootstrap of ``HopfieldMatcher.estimateFundamentalMatrix`` (``geometry.
+descriptor_correspondences``); run it in two checkouts to compare them.
+
 ``--smoke``: motorcycle and, when present, Middlebury tsukuba only (with
 ``--chessboards``: the first two pairs); a check that the script works.
 """
@@ -42,14 +49,20 @@ import numpy as np
 
 import hopmatch
 from hopmatch import datasets
+from hopmatch.matching.candidates import candidate_pairs
 from hopmatch.matching.diagnostics import (
+    RECTIFICATION_MAX_PAIRS,
     RECTIFICATION_RATIO,
     RECTIFICATION_SAMPLE,
     STEREO_SAMPLE,
+    STEREO_WINDOW,
+    clear_look_alikes,
     rectification_evidence,
+    stereo_pair_evidence,
     wide_rectification_evidence,
 )
 from hopmatch.matching.disparity_range import search_range
+from hopmatch.matching.geometry import descriptor_correspondences
 from hopmatch.matching.vertical import prior_look_alikes, rows_share_of
 from hopmatch.stereo import rectify
 
@@ -117,14 +130,49 @@ def wide_table(det, smoke: bool, chessboards: bool) -> None:
         print(f"| {name} | " + " | ".join(cells) + " |")
 
 
+def costs_table(det, smoke: bool) -> None:
+    """The ``--costs`` table."""
+    print("| scene | pairs in the wide band | wide check ms | stereo-pair check ms | "
+          "2-D bootstrap ms |")
+    print("|---|---:|---:|---:|---:|")
+    for name, left, right in pairs(False, smoke=smoke):
+        pl, _, dl, _ = det.detect_and_describe(left)
+        pr, _, dr, _ = det.detect_and_describe(right)
+        width = left.shape[1]
+        calls = (lambda: clear_look_alikes(pl, pr, dl, dr, 0.0, 0.25 * width, STEREO_WINDOW,
+                                           RECTIFICATION_SAMPLE),
+                 lambda: stereo_pair_evidence(pl, pr, dl, dr, 0.0, 0.25 * width),
+                 lambda: descriptor_correspondences(pl, pr, dl, dr, left.shape[1::-1][:2]))
+        sample = np.unique(np.linspace(0, len(pl) - 1, min(len(pl), RECTIFICATION_SAMPLE))
+                           .astype(np.int64))
+        n = len(candidate_pairs(np.ascontiguousarray(pl[sample]), pr, 0.0, 0.25 * width,
+                                STEREO_WINDOW, RECTIFICATION_MAX_PAIRS * 100)[0])
+        cells = [str(n)]
+        for call in calls:
+            call()
+            best = float("inf")
+            for _ in range(3):
+                t0 = time.perf_counter()
+                call()
+                best = min(best, time.perf_counter() - t0)
+            cells.append(f"{1e3 * best:.1f}")
+        print(f"| {name} | " + " | ".join(cells) + " |")
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--chessboards", action="store_true",
                         help="the rectified chessboard pairs of ../shared/data instead")
     parser.add_argument("--wide", action="store_true",
                         help="what match_stereo's rectified=None decides on (docs/pipelines.md)")
+    parser.add_argument("--costs", action="store_true",
+                        help="time the look-alike searches of the checks and the 2-D bootstrap")
     args = add_smoke_option(parser).parse_args(argv)
     det = hopmatch.DericheMoravecDetector()
+    if args.costs:
+        hopmatch.setNumThreads(1)
+        cv2.setNumThreads(1)
+        return costs_table(det, args.smoke)
     if args.wide:
         hopmatch.setNumThreads(1)
         cv2.setNumThreads(1)

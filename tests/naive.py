@@ -306,6 +306,20 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical):
     return pairs
 
 
+def best_two_by_sorting(ni, nk, sim):
+    """Each left point's first two pairs once the pairs are sorted by (left, distance,
+    right) with NumPy (NaN last): ``{left: (best, second or -1)}``, pair indices."""
+    order = np.lexsort((np.asarray(nk), np.asarray(sim, dtype=np.float64), np.asarray(ni)))
+    out = {}
+    for t in order.tolist():
+        i = int(ni[t])
+        if i not in out:
+            out[i] = [t, -1]
+        elif out[i][1] < 0:
+            out[i][1] = t
+    return {i: tuple(v) for i, v in out.items()}
+
+
 def epipolar_candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, f):
     """Every (i, k) with ``min_disparity <= xl - xr <= max_disparity`` (float32, as the
     points) and the right point within ``max_vertical`` of the epipolar line

@@ -452,3 +452,50 @@ def sort_groups(ni, nk, values):
             nk[u + 1] = key
             values[u + 1] = val
         lo = hi
+
+
+@jit(inline=True)
+def _ranks_before(s_a, k_a, s_b, k_b):
+    """Whether pair a comes before pair b in the order (similarity distance, right index),
+    NaN distances last (NumPy's sort order)."""
+    if s_a < s_b:
+        return True
+    if s_a > s_b:
+        return False
+    if s_a == s_b or (s_a != s_a and s_b != s_b):  # equal, or both NaN
+        return k_a < k_b
+    return s_b != s_b  # exactly one is NaN: the other comes first
+
+
+@jit
+def best_two_per_group(ni, nk, sim):
+    """The two best pairs of each left point: pairs grouped by left point (each left
+    point's pairs contiguous, the groups in any order), ranked by (``sim``, ``nk``), NaN
+    last. Returns ``(left, best, second)`` per group in input order: the group's ``ni``,
+    the index of its first pair in that ranking and of its second (-1 for a group of one
+    pair). In O(pairs), where sorting the pairs by (i, sim) costs O(pairs log pairs)."""
+    n = ni.shape[0]
+    groups = 0
+    for t in range(n):
+        if t == 0 or ni[t] != ni[t - 1]:
+            groups += 1
+    left = np.empty(groups, dtype=np.int64)
+    best = np.empty(groups, dtype=np.int64)
+    second = np.empty(groups, dtype=np.int64)
+    g = -1
+    for t in range(n):
+        if t == 0 or ni[t] != ni[t - 1]:
+            g += 1
+            left[g] = ni[t]
+            best[g] = t
+            second[g] = -1
+            continue
+        b = best[g]
+        if _ranks_before(sim[t], nk[t], sim[b], nk[b]):
+            second[g] = b
+            best[g] = t
+        else:
+            s = second[g]
+            if s < 0 or _ranks_before(sim[t], nk[t], sim[s], nk[s]):
+                second[g] = t
+    return left, best, second

@@ -107,6 +107,19 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
     return ni, nk
 
 
+def best_two_look_alikes(ni, nk, sim):
+    """The best and second-best right point of each left point among candidate pairs
+    ``(ni, nk)`` grouped by left point (as :func:`candidate_pairs` returns them, sorted or
+    not) with similarity distances ``sim``: ``(left, best, second)``, one entry per left
+    point in increasing ``left``, ``best`` and ``second`` indices into the pairs (``second``
+    -1 for a left point with one pair), ranked by distance, ties by right index, NaN last.
+    The first two pairs of each left point once the pairs are sorted by (left, distance,
+    right), found in one pass over them (``_kc.best_two_per_group``) instead of a sort."""
+    left, best, second = _kc.best_two_per_group(ni, nk, np.asarray(sim, dtype=np.float64))
+    order = np.argsort(left, kind="stable")
+    return left[order], best[order], second[order]
+
+
 def vertical_offsets(left, right, ni, nk, fundamental=None) -> np.ndarray:
     """The "vertical disparity" of each pair used by section 4: ``yl - yr`` on a rectified
     pair, or the signed distance of the right point to the left point's epipolar line."""

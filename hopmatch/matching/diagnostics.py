@@ -14,7 +14,7 @@ from ..errors import (
     NotStereoPairWarning,  # noqa: F401 (re-exported: its home was here)
     UnrectifiedPairWarning,
 )
-from .candidates import candidate_pairs
+from .candidates import best_two_look_alikes, candidate_pairs
 from .similarity import similarity_distance, window_contrasts
 
 # Rectification check (docs/robustness.md): how many left points are sampled, the band
@@ -89,23 +89,19 @@ def clear_look_alikes(q_pts, t_pts, qd, td, min_disparity, max_disparity, band,
     left = np.ascontiguousarray(q_pts[sample])
     try:
         ni, nk = candidate_pairs(left, t_pts, min_disparity, max_disparity, band,
-                                 RECTIFICATION_MAX_PAIRS)
+                                 RECTIFICATION_MAX_PAIRS, sort=False)
     except BudgetExceededError:
         return None
     if len(ni) == 0:
         return None
     sim = similarity_distance(np.ascontiguousarray(qd[sample]), td, ni, nk)
-    order = np.lexsort((sim, ni))
-    ni_o, nk_o, sim_o = ni[order], nk[order], sim[order]
-    first = np.flatnonzero(np.r_[True, ni_o[1:] != ni_o[:-1]])
-    counts = np.diff(np.r_[first, len(ni_o)])
-    has_two = counts >= 2
-    best, second = first[has_two], first[has_two] + 1
-    clear = sim_o[best] < RECTIFICATION_RATIO * sim_o[second]
-    best = best[clear]
-    if len(best) < RECTIFICATION_MIN_EVIDENCE:
+    lefts, best, second = best_two_look_alikes(ni, nk, sim)
+    two = second >= 0
+    lefts, best, second = lefts[two], best[two], second[two]
+    clear = sim[best] < RECTIFICATION_RATIO * sim[second]
+    if int(clear.sum()) < RECTIFICATION_MIN_EVIDENCE:
         return None
-    return sample[ni_o[best]], nk_o[best]
+    return sample[lefts[clear]], nk[best[clear]]
 
 
 def rectification_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity, max_vertical):
@@ -164,18 +160,16 @@ def stereo_pair_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity):
     try:
         ni, nk = candidate_pairs(np.ascontiguousarray(q_pts[sample]), t_pts,
                                  min_disparity - STEREO_WINDOW, max_disparity + STEREO_WINDOW,
-                                 STEREO_WINDOW, RECTIFICATION_MAX_PAIRS)
+                                 STEREO_WINDOW, RECTIFICATION_MAX_PAIRS, sort=False)
     except BudgetExceededError:
         return None
     if len(ni) == 0:
         return 0.0, 0.0, len(sample)
     sim = similarity_distance(np.ascontiguousarray(qd[sample]), td, ni, nk)
-    order = np.lexsort((sim, ni))
-    ni_o, sim_o = ni[order], sim[order]
-    first = np.flatnonzero(np.r_[True, ni_o[1:] != ni_o[:-1]])
-    two = np.diff(np.r_[first, len(ni_o)]) >= 2
-    clear = sim_o[first[two]] < RECTIFICATION_RATIO * sim_o[first[two] + 1]
-    close = sim_o[first] <= STEREO_LOOK_ALIKE
+    _, best, second = best_two_look_alikes(ni, nk, sim)
+    two = second >= 0
+    clear = sim[best[two]] < RECTIFICATION_RATIO * sim[second[two]]
+    close = sim[best] <= STEREO_LOOK_ALIKE
     return float(clear.sum()) / len(sample), float(close.sum()) / len(sample), len(sample)
 
 

@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from ..errors import BudgetExceededError, GeometryWarning  # noqa: F401 (re-exported)
-from .candidates import candidate_pairs
+from .candidates import best_two_look_alikes, candidate_pairs
 from .disparity_range import thin_points
 from .similarity import similarity_distance
 
@@ -192,7 +192,7 @@ def descriptor_correspondences(q_pts, t_pts, qd, td, size, *, min_disparity=None
     while True:
         left = np.ascontiguousarray(q_pts[keep])
         try:
-            ni, nk = candidate_pairs(left, t_pts, lo, hi, band, max_pairs)
+            ni, nk = candidate_pairs(left, t_pts, lo, hi, band, max_pairs, sort=False)
             break
         except BudgetExceededError:
             if len(keep) <= 2 * MIN_INLIERS:
@@ -201,14 +201,11 @@ def descriptor_correspondences(q_pts, t_pts, qd, td, size, *, min_disparity=None
     if len(ni) == 0:
         return empty, empty
     sim = similarity_distance(np.ascontiguousarray(qd[keep]), td, ni, nk)
-    order = np.lexsort((sim, ni))
-    ni, nk, sim = ni[order], nk[order], sim[order]
-    first = np.flatnonzero(np.r_[True, ni[1:] != ni[:-1]])
-    has_two = np.diff(np.r_[first, len(ni)]) >= 2
-    best, second = first[has_two], first[has_two] + 1
+    lefts, best, second = best_two_look_alikes(ni, nk, sim)
+    two = second >= 0
+    lefts, best, second = lefts[two], best[two], second[two]
     clear = sim[best] < ratio * sim[second]
-    best = best[clear]
-    return left[ni[best]], np.ascontiguousarray(t_pts[nk[best]])
+    return left[lefts[clear]], np.ascontiguousarray(t_pts[nk[best[clear]]])
 
 
 def magsac(left, right, threshold):

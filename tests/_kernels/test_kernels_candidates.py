@@ -13,6 +13,7 @@ from network_problems import make_problem
 
 from hopmatch._kernels import candidates as _k
 from hopmatch.errors import BudgetExceededError
+from hopmatch.matching.candidates import best_two_look_alikes
 from hopmatch.matching.network import candidate_pairs
 
 
@@ -252,3 +253,32 @@ class TestCountStopsAtTheBudget:
             warnings.simplefilter("error")
             for lo, hi in ((1e300, 1e300), (-1e300, -1e299)):
                 assert len(candidate_pairs(left, right, lo, hi, 1e300, 10**6)[0]) == 0
+
+
+class TestBestTwoPerGroup:
+    """``best_two_per_group`` (one pass) against sorting the pairs (``naive``)."""
+
+    @pytest.mark.parametrize("seed", [0, 1, 2, 3])
+    def test_equals_sorting_with_ties_nan_and_lone_pairs(self, seed):
+        rng = np.random.default_rng(seed)
+        sizes = rng.integers(1, 9, 60)  # groups of one pair included
+        groups = rng.permutation(200)[:len(sizes)]  # groups in any order, not contiguous ids
+        ni = np.repeat(groups, sizes).astype(np.int32)
+        nk = np.concatenate([rng.permutation(50)[:m] for m in sizes]).astype(np.int32)
+        sim = rng.integers(0, 4, len(ni)).astype(np.float64) / 4  # many exact ties
+        sim[rng.random(len(ni)) < 0.15] = np.nan
+        want = naive.best_two_by_sorting(ni, nk, sim)
+        left, best, second = _k.best_two_per_group(ni, nk, sim)
+        assert left.tolist() == groups.tolist()  # one entry per group, in input order
+        assert {i: (b, s) for i, b, s in zip(left.tolist(), best.tolist(),
+                                              second.tolist())} == want
+        assert (second[sizes == 1] == -1).all() and (second[sizes > 1] >= 0).all()
+        wl, wb, ws = best_two_look_alikes(ni, nk, sim)
+        assert wl.tolist() == sorted(groups.tolist())
+        assert [(b, s) for b, s in zip(wb.tolist(), ws.tolist())] == [want[i] for i in
+                                                                       wl.tolist()]
+
+    def test_empty(self):
+        left, best, second = _k.best_two_per_group(np.zeros(0, np.int32), np.zeros(0, np.int32),
+                                                   np.zeros(0))
+        assert len(left) == len(best) == len(second) == 0

@@ -300,6 +300,14 @@ def test_rectification_check_wide_smoke():
     )
 
 
+def test_rectification_check_costs_smoke():
+    """docs/robustness.md quotes its table: the look-alike searches' times per scene."""
+    out = run_script("rectification_check.py", "--costs")
+    assert_lines(out, r"\| scene \| pairs in the wide band \| wide check ms \| stereo-pair "
+                      r"check ms \| 2-D bootstrap ms \|",
+                 table_row("motorcycle", r"\d+", r"\d+\.\d", r"\d+\.\d", r"\d+\.\d"))
+
+
 def test_rectification_check_chessboards_smoke(shared_data):
     out = run_script("rectification_check.py", "--chessboards")
     cell = r"(\d+\.\d\d \(\d+, \d+%\)|n/a)"
