@@ -1,7 +1,7 @@
 """Unrectified pairs and self-finding disparity ranges (issue 18): the figures of its goals.
 
 Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large ranges]
-[--verge DEG] [--scenes NAME ...] [--refine-radius N]``
+[--verge DEG] [--scenes NAME ...] [--refine-radius N] [--large-scene NAME --large-factor F]``
 (single thread; needs ``../shared/data`` or ``$HOPMATCH_SHARED_DATA`` for every section but
 ``large``).
 
@@ -35,6 +35,9 @@ Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large 
   truth of a match is :func:`upsampled_truth` (the original map read bilinearly at the
   pixel-centre position of ``cv2.resize``); "nearest" figures read the nearest original
   pixel instead (``cv2.INTER_NEAREST`` of the map, as before this reading).
+  ``--large-scene NAME --large-factor F``: that shared scene upsampled F times instead
+  (e.g. ``middlebury2014/ArtL`` and 8: a full-size pair whose widened range exceeds the
+  candidate budget), and any warning ``match_stereo`` gave.
 - ``truth``: how well each scene's ground truth fits its own images, without a matcher
   (:func:`truth_fit`): the offset ``c`` and the gradient terms ``sx gx + sy gy`` that,
   added to the ground truth, give the lowest photometric error of the right image warped
@@ -400,11 +403,18 @@ single_thread()
 force_refine_radius(None if sys.argv[4] == "None" else int(sys.argv[4]))
 import hopmatch
 from hopmatch.evaluate import score_matches
-left, right, gt0 = motorcycle_bgr()
+if sys.argv[5] == "motorcycle":
+    left, right, gt0 = motorcycle_bgr()
+else:
+    from hopmatch import datasets
+    scene = datasets.load(sys.argv[5])
+    left, right, gt0 = scene.left, scene.right, scene.disparity
+def gray(image):
+    return image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
 left0, right0 = left, right
 size = (int(sys.argv[1]), int(sys.argv[2]))
-left = cv2.resize(cv2.cvtColor(left, cv2.COLOR_BGR2GRAY), size, interpolation=cv2.INTER_CUBIC)
-right = cv2.resize(cv2.cvtColor(right, cv2.COLOR_BGR2GRAY), size, interpolation=cv2.INTER_CUBIC)
+left = cv2.resize(gray(left), size, interpolation=cv2.INTER_CUBIC)
+right = cv2.resize(gray(right), size, interpolation=cv2.INTER_CUBIC)
 def best_of(call, runs=3):
     best = float("inf")
     for _ in range(runs):
@@ -419,7 +429,11 @@ if sys.argv[3] == "sift":
     out = dict(seconds=seconds)
 else:
     hopmatch.warmup()
-    seconds, r = best_of(lambda: hopmatch.match_stereo(left, right))
+    import warnings
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        seconds, r = best_of(lambda: hopmatch.match_stereo(left, right))
+    warned = sorted(set(str(w.message) for w in caught))
     stages = dict(r.timings, **r.match_timings)
     out = dict(seconds=seconds, keypoints=len(r.points_left),
                matches=len(r.query_idx), lo=r.network.config.min_disparity,
@@ -453,27 +467,28 @@ else:
         w = m & (np.abs(e) <= 2.0)
         out[name + "_bias"] = float(e[w].mean()) if w.any() else float("nan")
     out["bias"] = float(np.mean(e[np.abs(e) <= 2.0]))
-    r0 = hopmatch.match_stereo(cv2.cvtColor(left0, cv2.COLOR_BGR2GRAY),
-                               cv2.cvtColor(right0, cv2.COLOR_BGR2GRAY))
+    r0 = hopmatch.match_stereo(gray(left0), gray(right0))
     e0, _, _ = errors(r0.matched_left, r0.matched_right, 1.0)
     out["bias_original"] = float(np.mean(e0[np.abs(e0) <= 2.0 / f])) * f
     out["f_inv"] = 1.0 / f
+    out["warnings"] = warned
 out["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 print(json.dumps(out))
 """
 
 
-def large(size, refine_radius=None) -> None:
+def large(size, refine_radius=None, scene="motorcycle") -> None:
     runs = {}
     for mode in ("hopmatch", "sift"):
         proc = subprocess.run([sys.executable, "-c", LARGE_CHILD.format(here=str(HERE)),
-                               str(size[0]), str(size[1]), mode, str(refine_radius)],
+                               str(size[0]), str(size[1]), mode, str(refine_radius),
+                               scene],
                               capture_output=True, text=True)
         if proc.returncode:
             raise RuntimeError(f"the {mode} run failed:\n{proc.stderr}")
         runs[mode] = json.loads(proc.stdout.strip().splitlines()[-1])
     h, s = runs["hopmatch"], runs["sift"]
-    print(f"## Large pair: motorcycle upsampled to {size[0]} x {size[1]}, "
+    print(f"## Large pair: {scene} upsampled to {size[0]} x {size[1]}, "
           "match_stereo(left, right) with no parameter\n")
     print(f"range found: [{h['lo']:.1f}, {h['hi']:.1f}] px; keypoints {h['keypoints']}; "
           f"neurons {h['neurons']}; matches {h['matches']}")
@@ -491,7 +506,10 @@ def large(size, refine_radius=None) -> None:
           + f"; on the original pair (within {2 * h['f_inv']:.2f} px) x {1 / h['f_inv']:g}: "
           f"{h['bias_original']:+.3f} px")
     print(f"with the nearest original pixel as truth: precision {h['p1_nearest']:.3f} at 1 px, "
-          f"mean error within 2 px {h['bias_nearest']:+.3f} px\n")
+          f"mean error within 2 px {h['bias_nearest']:+.3f} px")
+    for message in h["warnings"]:
+        print(f"warning: {message}")
+    print()
 
 
 def ranges(names) -> None:
@@ -520,6 +538,11 @@ def main(argv=None) -> int:
     ap.add_argument("--verge", type=float, default=0.0,
                     help="perturbed: the right camera also turned by this many degrees "
                          "about its vertical axis (a verged rig; default 0)")
+    ap.add_argument("--large-scene", default="motorcycle",
+                    help="large: the scene upsampled (default motorcycle)")
+    ap.add_argument("--large-factor", type=float, default=None,
+                    help="large: upsample the scene this many times (default: motorcycle to "
+                         f"{LARGE[0]} x {LARGE[1]})")
     args = add_refine_radius_option(add_smoke_option(ap)).parse_args(argv)
     single_thread()
     force_refine_radius(args.refine_radius)
@@ -529,7 +552,12 @@ def main(argv=None) -> int:
     shared = datasets.shared_data_dir(must_exist=False) is not None
     for section in args.sections:
         if section == "large":
-            large(SMOKE_LARGE if args.smoke else LARGE, args.refine_radius)
+            size = SMOKE_LARGE if args.smoke else LARGE
+            if args.large_factor is not None:
+                w, h = np.shape((datasets.load_motorcycle() if args.large_scene == "motorcycle"
+                                 else datasets.load(args.large_scene)).left)[1::-1][-2:]
+                size = (round(w * args.large_factor), round(h * args.large_factor))
+            large(size, args.refine_radius, args.large_scene)
         elif not shared and section == "chessboards":
             print("## Chessboard pairs: skipped (no shared data)\n")
         elif section == "perturbed":

@@ -204,30 +204,45 @@ def resolve_disparity_range(config, q_pts, t_pts, qd, td, query_size, run_networ
     return DisparityRange(low, high, "coarse", (lo, hi), n)
 
 
+#: When the range found by the coarse pass exceeds a budget, the full pass tries these
+#: shares of its widening (:func:`widen`) in turn, down to the coarse matches' own extent
+#: plus :data:`RANGE_PIXELS` (0): a full-size pair whose widened range holds too many
+#: candidate pairs still gets most of the margin (docs/parameters.md, "Disparity range").
+BUDGET_WIDENING = (0.5, 0.25, 0.0)
+
+
 def run_in_range(run_network, found: DisparityRange, config, q_pts, t_pts, qd, td, **kwargs):
     """``(result, config)`` of ``run_network(q_pts, t_pts, qd, td, config, **kwargs)``, where
     ``config`` holds the range of ``found``. When a range found by the coarse pass exceeds
     a budget (:class:`~hopmatch.errors.BudgetExceededError`), the full pass runs again on
-    the found range with only :data:`RANGE_PIXELS` of margin, after a
-    :class:`~hopmatch.errors.DisparityRangeWarning`; if that fails too, the first error is
-    raised."""
+    ranges between it and the coarse matches' own extent (:data:`BUDGET_WIDENING`; the
+    last is that extent with :data:`RANGE_PIXELS` of margin) until one fits, with a
+    :class:`~hopmatch.errors.DisparityRangeWarning` that names it; if none fits, the
+    first error is raised."""
     try:
         return run_network(q_pts, t_pts, qd, td, config, **kwargs), config
     except BudgetExceededError as exc:
         if found.source != "coarse":
             raise
-        lo, hi = found.found
-        low = max(lo - RANGE_PIXELS, found.min_disparity)
-        high = hi + RANGE_PIXELS
+        first = exc
+    lo, hi = found.found
+    for share in BUDGET_WIDENING:
+        low = max(lo - RANGE_PIXELS + share * (found.min_disparity - lo + RANGE_PIXELS),
+                  found.min_disparity)
+        high = hi + RANGE_PIXELS + share * (found.max_disparity - hi - RANGE_PIXELS)
         narrow = dataclasses.replace(config, min_disparity=low, max_disparity=max(high, low))
-        warn(f"max_disparity=None: the range found, [{found.min_disparity:g}, "
-             f"{found.max_disparity:g}], exceeds a budget ({exc}); searching the coarse "
-             f"matches' own range [{narrow.min_disparity:g}, {narrow.max_disparity:g}] "
-             "instead", DisparityRangeWarning)
         try:
-            return run_network(q_pts, t_pts, qd, td, narrow, **kwargs), narrow
+            result = run_network(q_pts, t_pts, qd, td, narrow, **kwargs)
         except BudgetExceededError:
-            raise exc from None
+            continue
+        what = ("the coarse matches' own range" if share == 0 else
+                f"{share:.0%} of its widening around the coarse matches' range")
+        warn(f"max_disparity=None: the range found, [{found.min_disparity:g}, "
+             f"{found.max_disparity:g}], exceeds a budget ({first}); searching {what}, "
+             f"[{narrow.min_disparity:g}, {narrow.max_disparity:g}], instead",
+             DisparityRangeWarning)
+        return result, narrow
+    raise first from None
 
 
 def warn_fallback(found: DisparityRange, n_matches: int) -> None:

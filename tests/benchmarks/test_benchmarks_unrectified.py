@@ -54,6 +54,19 @@ def test_unrectified_smoke(shared_data):
                      r"[+-][\d.]+ \|$", out, re.M)
 
 
+def test_unrectified_large_scene_smoke(shared_data):
+    """--large-scene / --large-factor (docs/parameters.md quotes ArtL upsampled 8 times)."""
+    env = {**os.environ, "HOPMATCH_SHARED_DATA": str(SHARED_DATA)}
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "unrectified.py"),
+                           "--smoke", "--sections", "large", "--large-scene",
+                           "middlebury/tsukuba", "--large-factor", "1.5"], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert re.search(r"^## Large pair: middlebury/tsukuba upsampled to 576 x 432, ",
+                     proc.stdout, re.M)
+    assert re.search(r"^precision: 0\.\d+ at 1 px, 0\.\d+ at 2 px", proc.stdout, re.M)
+
+
 def _unrectified():
     """benchmarks/unrectified.py as a module (it imports benchmarks/_common.py)."""
     sys.path.insert(0, str(ROOT / "benchmarks"))

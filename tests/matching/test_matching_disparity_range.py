@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import cv2
 import numpy as np
 import pytest
@@ -100,6 +102,37 @@ def test_a_found_range_over_budget_retries_on_the_coarse_matches_own_range():
     assert res.config.max_disparity < free.config.max_disparity and len(res.query_idx) > 50
     with pytest.raises(BudgetExceededError):
         hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480), max_neurons=10)
+
+
+def test_a_found_range_over_budget_keeps_as_much_of_its_widening_as_fits():
+    """Between the widened range and the coarse matches' own extent, the first share of
+    the widening (BUDGET_WIDENING) whose candidates fit the budget is searched."""
+    left = textured((480, 640), seed=5)
+    right = np.roll(left, -10, axis=1)
+    det = hopmatch.DericheMoravecDetector()
+    pl, _, dl, _ = det.detect_and_describe(left)
+    pr, _, drr, _ = det.detect_and_describe(right)
+    free = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480))
+    asked = dataclasses.replace(free.config, max_disparity=None)  # min_disparity: its floor
+    found = dr.resolve_disparity_range(asked, pl, pr, dl, drr, (640, 480),
+                                       hopmatch.matching.network.run_hopfield_network)
+    assert found.source == "coarse"
+    assert (found.min_disparity, found.max_disparity) == (free.config.min_disparity,
+                                                          free.config.max_disparity)
+    lo, hi = found.found
+    share = dr.BUDGET_WIDENING[0]
+    low = lo - dr.RANGE_PIXELS + share * (found.min_disparity - lo + dr.RANGE_PIXELS)
+    high = hi + dr.RANGE_PIXELS + share * (found.max_disparity - hi - dr.RANGE_PIXELS)
+    count = lambda lo_, hi_: len(candidate_pairs(pl, pr, lo_, hi_, 1.0, 10**9)[0])  # noqa: E731
+    wide, half = count(found.min_disparity, found.max_disparity), count(low, high)
+    coarse = count(0.0, 160.0) * len(dr.thin_points(pl, dr.COARSE_POINTS)) // len(pl)
+    budget = max(half, coarse) + (wide - max(half, coarse)) // 2
+    assert max(half, coarse) < budget < wide
+    with pytest.warns(DisparityRangeWarning, match="50% of its widening"):
+        res = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480),
+                                      max_neurons=budget)
+    assert (res.config.min_disparity, res.config.max_disparity) == pytest.approx((low, high))
+    assert found.min_disparity < low < lo and hi < high < found.max_disparity
 
 
 def test_the_range_covers_the_true_range_on_every_shared_scene(shared_data):
