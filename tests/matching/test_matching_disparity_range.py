@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import cv2
 import numpy as np
@@ -83,36 +84,30 @@ def test_nothing_to_find_warns_that_the_fallback_range_was_searched():
     assert res.network.config.max_disparity == pytest.approx(0.25 * 160)
 
 
-def test_a_found_range_over_budget_retries_on_the_coarse_matches_own_range():
+@pytest.fixture(scope="module")
+def shifted_pair():
+    """Keypoints and descriptors of a textured pair 10 px apart, and its match with the
+    range found (``max_disparity=None``)."""
     left = textured((480, 640), seed=5)
     right = np.roll(left, -10, axis=1)
     det = hopmatch.DericheMoravecDetector()
     pl, _, dl, _ = det.detect_and_describe(left)
     pr, _, drr, _ = det.detect_and_describe(right)
-    free = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480))
-    count = lambda pts, lo, hi: len(candidate_pairs(pts, pr, lo, hi, 1.0, 10**9)[0])  # noqa: E731
-    wide = count(pl, free.config.min_disparity, free.config.max_disparity)
-    narrow = count(pl, 10.0 - 2 * dr.RANGE_PIXELS, 10.0 + 2 * dr.RANGE_PIXELS)
-    coarse = count(pl[dr.thin_points(pl, dr.COARSE_POINTS)], 0.0, 160.0)
-    budget = max(narrow, coarse) + (wide - max(narrow, coarse)) // 2
-    assert max(narrow, coarse) < budget < wide
-    with pytest.warns(DisparityRangeWarning, match="exceeds a budget"):
-        res = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480),
-                                      max_neurons=budget)
-    assert res.config.max_disparity < free.config.max_disparity and len(res.query_idx) > 50
+    return pl, pr, dl, drr, hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480))
+
+
+def test_a_found_range_over_every_budget_step_raises(shifted_pair):
+    pl, pr, dl, drr, _ = shifted_pair
     with pytest.raises(BudgetExceededError):
         hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480), max_neurons=10)
 
 
-def test_a_found_range_over_budget_keeps_as_much_of_its_widening_as_fits():
+@pytest.mark.parametrize("step", range(len(dr.BUDGET_WIDENING)))
+def test_a_found_range_over_budget_keeps_as_much_of_its_widening_as_fits(shifted_pair, step):
     """Between the widened range and the coarse matches' own extent, the first share of
-    the widening (BUDGET_WIDENING) whose candidates fit the budget is searched."""
-    left = textured((480, 640), seed=5)
-    right = np.roll(left, -10, axis=1)
-    det = hopmatch.DericheMoravecDetector()
-    pl, _, dl, _ = det.detect_and_describe(left)
-    pr, _, drr, _ = det.detect_and_describe(right)
-    free = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480))
+    the widening (BUDGET_WIDENING) whose candidates fit the budget is searched, with a
+    warning that names it."""
+    pl, pr, dl, drr, free = shifted_pair
     asked = dataclasses.replace(free.config, max_disparity=None)  # min_disparity: its floor
     found = dr.resolve_disparity_range(asked, pl, pr, dl, drr, (640, 480),
                                        hopmatch.matching.network.run_hopfield_network)
@@ -120,19 +115,28 @@ def test_a_found_range_over_budget_keeps_as_much_of_its_widening_as_fits():
     assert (found.min_disparity, found.max_disparity) == (free.config.min_disparity,
                                                           free.config.max_disparity)
     lo, hi = found.found
-    share = dr.BUDGET_WIDENING[0]
-    low = lo - dr.RANGE_PIXELS + share * (found.min_disparity - lo + dr.RANGE_PIXELS)
-    high = hi + dr.RANGE_PIXELS + share * (found.max_disparity - hi - dr.RANGE_PIXELS)
-    count = lambda lo_, hi_: len(candidate_pairs(pl, pr, lo_, hi_, 1.0, 10**9)[0])  # noqa: E731
-    wide, half = count(found.min_disparity, found.max_disparity), count(low, high)
-    coarse = count(0.0, 160.0) * len(dr.thin_points(pl, dr.COARSE_POINTS)) // len(pl)
-    budget = max(half, coarse) + (wide - max(half, coarse)) // 2
-    assert max(half, coarse) < budget < wide
-    with pytest.warns(DisparityRangeWarning, match="50% of its widening"):
+
+    def searched(share):
+        return (max(lo - dr.RANGE_PIXELS + share * (found.min_disparity - lo + dr.RANGE_PIXELS),
+                    found.min_disparity),
+                hi + dr.RANGE_PIXELS + share * (found.max_disparity - hi - dr.RANGE_PIXELS))
+
+    def count(pts, bounds):
+        return len(candidate_pairs(pts, pr, *bounds, 1.0, 10**9)[0])
+
+    share = dr.BUDGET_WIDENING[step]
+    wider = (1.0,) + dr.BUDGET_WIDENING[:step]  # what must not fit: the widened range first
+    fits = count(pl, searched(share))
+    coarse = count(pl[dr.thin_points(pl, dr.COARSE_POINTS)], (0.0, 160.0))
+    tight = min(count(pl, searched(w)) for w in wider)
+    budget = max(fits, coarse) + (tight - max(fits, coarse)) // 2
+    assert max(fits, coarse) < budget < tight
+    what = "the coarse matches' own range" if share == 0 else f"{share:.0%} of its widening"
+    with pytest.warns(DisparityRangeWarning, match="exceeds a budget.*" + re.escape(what)):
         res = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480),
                                       max_neurons=budget)
-    assert (res.config.min_disparity, res.config.max_disparity) == pytest.approx((low, high))
-    assert found.min_disparity < low < lo and hi < high < found.max_disparity
+    assert (res.config.min_disparity, res.config.max_disparity) == pytest.approx(searched(share))
+    assert len(res.query_idx) > 50
 
 
 def test_the_range_covers_the_true_range_on_every_shared_scene(shared_data):
