@@ -1,7 +1,7 @@
 """Where match_stereo loses the left keypoints that StereoSGBM gets right, stage by stage.
 
 Run: ``python benchmarks/recall_losses.py [--scenes NAME ...] [--perturb SPEC] [--guided JSON]
-[--smoke]``
+[--oracle-prediction] [--smoke]``
 
 For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
 scene there; defaults, as ``benchmarks/passes.py`` runs them) it takes the left keypoints
@@ -34,6 +34,13 @@ those loosest settings but not the later rounds' (margin ``GUIDED_LATER_MARGIN``
 brackets... kept simple: ``later: margin`` and ``later: field``, or ``later: accepted``
 (the rounds stopped before reaching it).
 
+Last, hopmatch's pooled precision (correct of scored matches, as ``passes.py``).
+
+``--oracle-prediction``: the guided rounds' predicted disparity at each left point (the
+local plane of its matched neighbours) is replaced by the ground truth there
+(:func:`passes.bilinear_gt`, where known), in every pass; what is then lost is lost to
+the tests, not to the prediction.
+
 ``--guided`` sets module constants of :mod:`hopmatch.matching.guided` first, as in
 ``passes.py``. ``--perturb SPEC`` changes hopmatch's right image as ``passes.py
 --perturb`` does (``vig0.4``, ``gain0.6``, ``rot0.3+dy1.5``...; SGBM still runs on the
@@ -45,6 +52,7 @@ centre crop only (figures mean nothing).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import json
 import sys
@@ -55,7 +63,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import add_smoke_option, single_thread, smoke_crop  # noqa: E402
-from passes import perturb, unmap  # noqa: E402
+from passes import bilinear_gt, perturb, unmap  # noqa: E402
 
 from hopmatch import datasets  # noqa: E402
 from hopmatch.compare import METHODS  # noqa: E402
@@ -110,8 +118,8 @@ def detect(image):
 
 def scene_losses(scene, spec=""):
     """``(counts of NETWORK_COLUMNS, counts of GUIDED_COLUMNS, lost, wrong, sgbm correct,
-    hopmatch correct, keypoints with ground truth, seconds)`` of one pair, hopmatch's right
-    image perturbed by ``spec`` (``passes.perturb``)."""
+    hopmatch correct, keypoints with ground truth, hopmatch matches scored, seconds)`` of one
+    pair, hopmatch's right image perturbed by ``spec`` (``passes.perturb``)."""
     t0 = time.perf_counter()
     right, warp = perturb(scene.right, spec) if spec else (scene.right, np.eye(3))
     found_l, found_r = detect(scene.left), detect(right)
@@ -142,6 +150,8 @@ def scene_losses(scene, spec=""):
         return m, c
 
     m_full, c_full = matched_correct(full)
+    scored = score_matches(full.matched_left, unmap(full.matched_right, warp), disp,
+                           thresholds=(1.0,)).n_scored
     m_raw, _ = matched_correct(raw)
     wrong = sgbm_ok & m_full & ~c_full
     lost = sgbm_ok & ~m_full
@@ -214,7 +224,28 @@ def scene_losses(scene, spec=""):
             sel = loose == guided_results.GUIDED_STAGES.index(name)
         g_counts.append(int((never & sel).sum()))
     return (net_counts, g_counts, int(lost.sum()), int(wrong.sum()), int(sgbm_ok.sum()),
-            int(c_full.sum()), int(np.isfinite(gt).sum()), time.perf_counter() - t0)
+            int(c_full.sum()), int(np.isfinite(gt).sum()), int(scored),
+            time.perf_counter() - t0)
+
+
+@contextlib.contextmanager
+def oracle_prediction(disparity):
+    """Within the block, the guided rounds predict the ground truth ``disparity`` (read
+    bilinearly at each query point, where known) instead of their neighbours' plane; the
+    plane's gradient (the sheared windows, the field's slope) is kept."""
+    planes = guided.neighbour_planes
+
+    def truth_planes(queries, *args, **kwargs):
+        pred, gx, gy = planes(queries, *args, **kwargs)
+        truth = bilinear_gt(np.asarray(queries), disparity)
+        known = np.isfinite(truth)
+        return np.where(known, truth, pred), gx, gy
+
+    guided.neighbour_planes = truth_planes
+    try:
+        yield
+    finally:
+        guided.neighbour_planes = planes
 
 
 def print_row(label, cells):
@@ -227,6 +258,8 @@ def main(argv=None) -> int:
     ap.add_argument("--perturb", default="", help="right-image perturbation (passes.py's)")
     ap.add_argument("--guided", default="{}",
                     help="constants of hopmatch.matching.guided to set (JSON object)")
+    ap.add_argument("--oracle-prediction", action="store_true",
+                    help="the guided rounds predict the ground truth (an upper bound)")
     args = add_smoke_option(ap).parse_args(argv)
     single_thread()
     for name, value in json.loads(args.guided).items():
@@ -241,12 +274,14 @@ def main(argv=None) -> int:
             scene = dataclasses.replace(scene, left=smoke_crop(scene.left),
                                         right=smoke_crop(scene.right),
                                         disparity=smoke_crop(scene.disparity))
-        rows.append((n, scene_losses(scene, args.perturb)))
+        with (oracle_prediction(scene.disparity) if args.oracle_prediction
+              else contextlib.nullcontext()):
+            rows.append((n, scene_losses(scene, args.perturb)))
     print("## network: where the lost points (SGBM right, hopmatch unmatched) were lost")
     print("scene | with gt | SGBM correct | hopmatch correct | lost | wrong | "
           + " | ".join(NETWORK_COLUMNS))
     tot = np.zeros(5 + len(NETWORK_COLUMNS), dtype=np.int64)
-    for n, (nc, _, lost, wrong, sg, hc, known, _) in rows:
+    for n, (nc, _, lost, wrong, sg, hc, known, _, _) in rows:
         cells = [known, sg, hc, lost, wrong, *nc]
         tot += cells
         print_row(n, cells)
@@ -260,7 +295,10 @@ def main(argv=None) -> int:
         tot += cells
         print_row(n, cells)
     print_row("pooled", tot.tolist())
-    print(f"\n{sum(r[1][-1] for r in rows):.1f} s")
+    correct, scored = sum(r[1][5] for r in rows), sum(r[1][7] for r in rows)
+    print(f"\nhopmatch: {correct} correct of {scored} scored matches, precision "
+          f"{correct / max(scored, 1):.4f}")
+    print(f"{sum(r[1][-1] for r in rows):.1f} s")
     return 0
 
 

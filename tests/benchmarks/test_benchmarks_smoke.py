@@ -434,6 +434,20 @@ def test_clipping_smoke():
                         r"unclipped right window, \d+ correct on the clipped pair", lines[5])
 
 
+def test_recall_losses_oracle_prediction_predicts_the_truth():
+    """``--oracle-prediction`` (docs/parameters.md quotes it): with the ground truth as
+    the guided rounds' prediction, the lost points whose prediction was more than 1 px off
+    all but vanish (the few left have no bilinear ground truth at the point)."""
+    def pred_wrong(*args):
+        lines = run_script("recall_losses.py", *args).splitlines()
+        column = lines[6].split(" | ").index("off pred (pred wrong)")
+        assert lines[8].startswith("pooled | ")
+        return int(lines[8].split(" | ")[column])
+
+    plain, oracle = pred_wrong(), pred_wrong("--oracle-prediction")
+    assert plain >= 10 and oracle <= plain // 4, (plain, oracle)
+
+
 def test_recall_losses_perturbed_maps_the_right_points_back():
     """``--perturb dy3``: SGBM still scores the unperturbed pair (same SGBM-correct count),
     and hopmatch's matches in the shifted right image are mapped back before scoring (not
