@@ -22,6 +22,7 @@ import numpy as np
 
 from .._warnings import warn
 from ..errors import BudgetExceededError, DisparityRangeWarning
+from .candidates import candidate_pairs
 
 #: Left points the coarse pass keeps (one per cell of a grid over their bounding box).
 COARSE_POINTS = 1500
@@ -209,6 +210,29 @@ def resolve_disparity_range(config, q_pts, t_pts, qd, td, query_size, run_networ
 #: plus :data:`RANGE_PIXELS` (0): a full-size pair whose widened range holds too many
 #: candidate pairs still gets most of the margin (docs/parameters.md, "Disparity range").
 BUDGET_WIDENING = (0.5, 0.25, 0.0)
+#: A share of the widening but the last is searched only when the candidate pairs of one
+#: left point in this many (counted within that fraction of the budget) predict that it
+#: fits within :data:`BUDGET_ESTIMATE_SLACK` of the budget: a refusal then costs little
+#: more than the two searches it cost before the shares (docs/robustness.md, "Budgets and
+#: measured memory").
+BUDGET_ESTIMATE_STEP = 8
+BUDGET_ESTIMATE_SLACK = 0.9
+
+
+def estimated_pairs(q_pts, t_pts, low: float, high: float, config, fundamental=None) -> float:
+    """The candidate pairs of ``[low, high]`` (``config``'s band), estimated from one left
+    point in :data:`BUDGET_ESTIMATE_STEP` within that share of ``config.max_neurons`` (inf
+    beyond it)."""
+    sample = np.ascontiguousarray(q_pts[::BUDGET_ESTIMATE_STEP])
+    if not len(sample):
+        return 0.0
+    try:
+        ni, _ = candidate_pairs(sample, t_pts, low, high, config.max_vertical,
+                                max(config.max_neurons // BUDGET_ESTIMATE_STEP, 1), fundamental,
+                                sort=False)
+    except BudgetExceededError:
+        return float("inf")
+    return len(ni) * len(q_pts) / len(sample)
 
 
 def run_in_range(run_network, found: DisparityRange, config, q_pts, t_pts, qd, td, **kwargs):
@@ -216,7 +240,8 @@ def run_in_range(run_network, found: DisparityRange, config, q_pts, t_pts, qd, t
     ``config`` holds the range of ``found``. When a range found by the coarse pass exceeds
     a budget (:class:`~hopmatch.errors.BudgetExceededError`), the full pass runs again on
     ranges between it and the coarse matches' own extent (:data:`BUDGET_WIDENING`; the
-    last is that extent with :data:`RANGE_PIXELS` of margin) until one fits, with a
+    last is that extent with :data:`RANGE_PIXELS` of margin; the others only where
+    :func:`estimated_pairs` predicts that they fit) until one fits, with a
     :class:`~hopmatch.errors.DisparityRangeWarning` that names it; if none fits, the
     first error is raised."""
     try:
@@ -231,6 +256,10 @@ def run_in_range(run_network, found: DisparityRange, config, q_pts, t_pts, qd, t
                   found.min_disparity)
         high = hi + RANGE_PIXELS + share * (found.max_disparity - hi - RANGE_PIXELS)
         narrow = dataclasses.replace(config, min_disparity=low, max_disparity=max(high, low))
+        if share > 0 and estimated_pairs(
+                q_pts, t_pts, low, max(high, low), config, kwargs.get("fundamental")) \
+                > BUDGET_ESTIMATE_SLACK * config.max_neurons:
+            continue
         try:
             result = run_network(q_pts, t_pts, qd, td, narrow, **kwargs)
         except BudgetExceededError:

@@ -102,6 +102,17 @@ def test_a_found_range_over_every_budget_step_raises(shifted_pair):
         hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480), max_neurons=10)
 
 
+def test_estimated_pairs_scales_a_sample_and_stops_at_its_share_of_the_budget(shifted_pair):
+    pl, pr, _, _, free = shifted_pair
+    bounds = (free.config.min_disparity, free.config.max_disparity)
+    true = len(candidate_pairs(pl, pr, *bounds, free.config.max_vertical, 10**9)[0])
+    roomy = dataclasses.replace(free.config, max_neurons=10 * true)
+    assert dr.estimated_pairs(pl, pr, *bounds, roomy) == pytest.approx(true, rel=0.1)
+    tight = dataclasses.replace(free.config, max_neurons=true // 4)
+    assert dr.estimated_pairs(pl, pr, *bounds, tight) == float("inf")
+    assert dr.estimated_pairs(pl[:0], pr, *bounds, roomy) == 0.0
+
+
 @pytest.mark.parametrize("step", range(len(dr.BUDGET_WIDENING)))
 def test_a_found_range_over_budget_keeps_as_much_of_its_widening_as_fits(shifted_pair, step):
     """Between the widened range and the coarse matches' own extent, the first share of
