@@ -25,12 +25,14 @@ rotated 5 degrees, shifted 30 px down and scaled 1.03 (``cv2.warpAffine``); with
 ``../shared/data/opencv_stereo_calib`` (calibrated as in ``examples/stereo_calibration.py``)
 instead: low-texture scenes where many look-alikes are wrong.
 
-``--costs`` times (best of 3, one thread) the three searches for each left point's clear best
-look-alike, on each scene's default keypoints over a quarter of the width: the wide check
-(``clear_look_alikes`` in 64 rows, 300 left points, what ``wide_rectification_evidence``
-does at most), the stereo-pair check (``stereo_pair_evidence``) and the two-dimensional
-bootstrap of ``HopfieldMatcher.estimateFundamentalMatrix`` (``geometry.
-descriptor_correspondences``); run it in two checkouts to compare them.
+``--costs`` times (best of 3, one thread) the searches for each left point's clear best
+look-alike, on each scene's default keypoints over a quarter of the width: the row-offset
+prior that every rectified pair's network starts with (``vertical.prior_look_alikes``,
+rows of +-1 px), the wide check (``clear_look_alikes`` in 64 rows, 300 left points, what
+``wide_rectification_evidence`` does at most), the stereo-pair check
+(``stereo_pair_evidence``) and the two-dimensional bootstrap of
+``HopfieldMatcher.estimateFundamentalMatrix`` (``geometry.descriptor_correspondences``);
+run it in two checkouts to compare them.
 
 ``--smoke``: motorcycle and, when present, Middlebury tsukuba only (with
 ``--chessboards``: the first two pairs); a check that the script works.
@@ -132,14 +134,15 @@ def wide_table(det, smoke: bool, chessboards: bool) -> None:
 
 def costs_table(det, smoke: bool) -> None:
     """The ``--costs`` table."""
-    print("| scene | pairs in the wide band | wide check ms | stereo-pair check ms | "
+    print("| scene | pairs in the wide band | prior ms | wide check ms | stereo-pair check ms | "
           "2-D bootstrap ms |")
-    print("|---|---:|---:|---:|---:|")
+    print("|---|---:|---:|---:|---:|---:|")
     for name, left, right in pairs(False, smoke=smoke):
         pl, _, dl, _ = det.detect_and_describe(left)
         pr, _, dr, _ = det.detect_and_describe(right)
         width = left.shape[1]
-        calls = (lambda: clear_look_alikes(pl, pr, dl, dr, 0.0, 0.25 * width, STEREO_WINDOW,
+        calls = (lambda: prior_look_alikes(pl, pr, dl, dr, 0.0, 0.25 * width, 1.0),
+                 lambda: clear_look_alikes(pl, pr, dl, dr, 0.0, 0.25 * width, STEREO_WINDOW,
                                            RECTIFICATION_SAMPLE),
                  lambda: stereo_pair_evidence(pl, pr, dl, dr, 0.0, 0.25 * width),
                  lambda: descriptor_correspondences(pl, pr, dl, dr, left.shape[1::-1][:2]))
