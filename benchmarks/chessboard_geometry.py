@@ -48,7 +48,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import add_smoke_option, single_thread  # noqa: E402
-from unrectified import board_corners, calibration, on_lines  # noqa: E402
+from unrectified import (  # noqa: E402
+    board_corners,
+    calibration,
+    on_lines,
+    undistorted_points,
+)
 
 import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
@@ -80,8 +85,7 @@ def pair_row(folder, cal, i) -> str:
              f"{good / n:.1%} of {n}" if n else "0 of 0"]
     if cl is None or cr is None or res.fundamental_matrix is None:
         return f"| {i} | " + " | ".join(cells + ["n/a"] * 4) + " |"
-    ul = cv2.undistortPoints(cl.reshape(-1, 1, 2), cal.K1, cal.D1, P=cal.K1).reshape(-1, 2)
-    ur = cv2.undistortPoints(cr.reshape(-1, 1, 2), cal.K2, cal.D2, P=cal.K2).reshape(-1, 2)
+    ul, ur = undistorted_points(cal, cl, cr)
     cells.append(spread(epipolar_distances(ul, ur, cal.fundamental_matrix())))
     cells.append(spread(epipolar_distances(cl, cr, res.fundamental_matrix)))
     boot = estimate_geometry(left, right)  # the bootstrap match_stereo starts from
@@ -100,10 +104,7 @@ def pair_row(folder, cal, i) -> str:
 def signed_distances(cal, left, right) -> np.ndarray:
     """(N,) signed distance (px) of the raw right points to the calibrated epipolar lines of
     the raw left points (both undistorted first; the sign of ``l . x_r``)."""
-    ul = cv2.undistortPoints(np.float64(left).reshape(-1, 1, 2), cal.K1, cal.D1,
-                             P=cal.K1).reshape(-1, 2)
-    ur = cv2.undistortPoints(np.float64(right).reshape(-1, 1, 2), cal.K2, cal.D2,
-                             P=cal.K2).reshape(-1, 2)
+    ul, ur = undistorted_points(cal, left, right)
     lines = np.c_[ul, np.ones(len(ul))] @ cal.fundamental_matrix().T
     return np.sum(lines * np.c_[ur, np.ones(len(ur))], axis=1) / np.hypot(lines[:, 0],
                                                                           lines[:, 1])

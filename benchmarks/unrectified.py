@@ -329,14 +329,19 @@ def calibration(folder):
     return StereoCalibration(k1, d1, k2, d2, r, t, image_size=size), used
 
 
+def undistorted_points(cal, left, right):
+    """``(left, right)`` raw image points of the calibrated pair ``cal`` undistorted, (N, 2)
+    float64 each, in the pixels of its camera matrices (what the calibrated F relates)."""
+    return tuple(cv2.undistortPoints(np.float64(p).reshape(-1, 1, 2), k, d, P=k).reshape(-1, 2)
+                 for p, k, d in ((left, cal.K1, cal.D1), (right, cal.K2, cal.D2)))
+
+
 def on_lines(cal, left, right, undistorted) -> tuple[int, int]:
     """(matches within 1 px of the calibrated epipolar lines, matches)."""
     if len(left) == 0:
         return 0, 0
     if not undistorted:
-        left = cv2.undistortPoints(np.float64(left).reshape(-1, 1, 2), cal.K1, cal.D1, P=cal.K1)
-        right = cv2.undistortPoints(np.float64(right).reshape(-1, 1, 2), cal.K2, cal.D2,
-                                    P=cal.K2)
+        left, right = undistorted_points(cal, left, right)
     d = epipolar_distances(np.reshape(left, (-1, 2)), np.reshape(right, (-1, 2)),
                            cal.fundamental_matrix())
     return int((d <= 1.0).sum()), len(d)

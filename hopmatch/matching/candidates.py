@@ -120,6 +120,18 @@ def best_two_look_alikes(ni, nk, sim):
     return left[order], best[order], second[order]
 
 
+def clear_best_look_alikes(ni, nk, sim, ratio: float):
+    """``(left, best)`` of the left points whose best right point (:func:`best_two_look_alikes`)
+    is clearly better than their second: distance below ``ratio`` times the second's (a
+    left point with one pair has no second and is left out); increasing ``left``, ``best``
+    indices into the pairs."""
+    left, best, second = best_two_look_alikes(ni, nk, sim)
+    two = second >= 0
+    left, best, second = left[two], best[two], second[two]
+    clear = np.asarray(sim)[best] < ratio * np.asarray(sim)[second]
+    return left[clear], best[clear]
+
+
 def vertical_offsets(left, right, ni, nk, fundamental=None) -> np.ndarray:
     """The "vertical disparity" of each pair used by section 4: ``yl - yr`` on a rectified
     pair, or the signed distance of the right point to the left point's epipolar line."""

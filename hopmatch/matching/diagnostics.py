@@ -14,7 +14,7 @@ from ..errors import (
     NotStereoPairWarning,  # noqa: F401 (re-exported: its home was here)
     UnrectifiedPairWarning,
 )
-from .candidates import best_two_look_alikes, candidate_pairs
+from .candidates import best_two_look_alikes, candidate_pairs, clear_best_look_alikes
 from .similarity import similarity_distance, window_contrasts
 
 # Rectification check (docs/robustness.md): how many left points are sampled, the band
@@ -95,13 +95,10 @@ def clear_look_alikes(q_pts, t_pts, qd, td, min_disparity, max_disparity, band,
     if len(ni) == 0:
         return None
     sim = similarity_distance(np.ascontiguousarray(qd[sample]), td, ni, nk)
-    lefts, best, second = best_two_look_alikes(ni, nk, sim)
-    two = second >= 0
-    lefts, best, second = lefts[two], best[two], second[two]
-    clear = sim[best] < RECTIFICATION_RATIO * sim[second]
-    if int(clear.sum()) < RECTIFICATION_MIN_EVIDENCE:
+    lefts, best = clear_best_look_alikes(ni, nk, sim, RECTIFICATION_RATIO)
+    if len(best) < RECTIFICATION_MIN_EVIDENCE:
         return None
-    return sample[lefts[clear]], nk[best[clear]]
+    return sample[lefts], nk[best]
 
 
 def rectification_evidence(q_pts, t_pts, qd, td, min_disparity, max_disparity, max_vertical):

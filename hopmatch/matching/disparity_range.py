@@ -254,12 +254,12 @@ def run_in_range(run_network, found: DisparityRange, config, q_pts, t_pts, qd, t
     for share in BUDGET_WIDENING:
         low = max(lo - RANGE_PIXELS + share * (found.min_disparity - lo + RANGE_PIXELS),
                   found.min_disparity)
-        high = hi + RANGE_PIXELS + share * (found.max_disparity - hi - RANGE_PIXELS)
-        narrow = dataclasses.replace(config, min_disparity=low, max_disparity=max(high, low))
-        if share > 0 and estimated_pairs(
-                q_pts, t_pts, low, max(high, low), config, kwargs.get("fundamental")) \
+        high = max(hi + RANGE_PIXELS + share * (found.max_disparity - hi - RANGE_PIXELS), low)
+        if share > 0 and estimated_pairs(q_pts, t_pts, low, high, config,
+                                         kwargs.get("fundamental")) \
                 > BUDGET_ESTIMATE_SLACK * config.max_neurons:
             continue
+        narrow = dataclasses.replace(config, min_disparity=low, max_disparity=high)
         try:
             result = run_network(q_pts, t_pts, qd, td, narrow, **kwargs)
         except BudgetExceededError:

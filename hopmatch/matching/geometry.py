@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from ..errors import BudgetExceededError, GeometryWarning  # noqa: F401 (re-exported)
-from .candidates import best_two_look_alikes, candidate_pairs
+from .candidates import candidate_pairs, clear_best_look_alikes
 from .disparity_range import thin_points
 from .similarity import similarity_distance
 
@@ -201,11 +201,8 @@ def descriptor_correspondences(q_pts, t_pts, qd, td, size, *, min_disparity=None
     if len(ni) == 0:
         return empty, empty
     sim = similarity_distance(np.ascontiguousarray(qd[keep]), td, ni, nk)
-    lefts, best, second = best_two_look_alikes(ni, nk, sim)
-    two = second >= 0
-    lefts, best, second = lefts[two], best[two], second[two]
-    clear = sim[best] < ratio * sim[second]
-    return left[lefts[clear]], np.ascontiguousarray(t_pts[nk[best[clear]]])
+    lefts, best = clear_best_look_alikes(ni, nk, sim, ratio)
+    return left[lefts], np.ascontiguousarray(t_pts[nk[best]])
 
 
 def magsac(left, right, threshold):
