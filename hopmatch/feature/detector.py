@@ -132,12 +132,17 @@ class DericheMoravecDetector(Configurable):
         ``name``."""
         return self.gray_and_feature_image(image, name)[1]
 
+    def gray_image(self, image, name: str = "image") -> np.ndarray:
+        """``image`` checked (``max_pixels`` included) and converted to grey
+        (:func:`~hopmatch._validate.as_gray_image`; it may be ``image`` itself); errors
+        name ``name``."""
+        return as_gray_image(image, name, max_pixels=self._params["max_pixels"])
+
     def gray_and_feature_image(self, image, name: str = "image"):
-        """``(grey, G)``: ``image`` checked (``max_pixels`` included) and converted to grey
-        (:func:`~hopmatch._validate.as_gray_image`; it may be ``image`` itself), and the
-        feature image G of :meth:`feature_image`; errors name ``name``."""
+        """``(grey, G)``: ``image`` as :meth:`gray_image` returns it, and the feature image
+        G of :meth:`feature_image`; errors name ``name``."""
         p = self._params
-        gray = as_gray_image(image, name, max_pixels=p["max_pixels"])
+        gray = self.gray_image(image, name)
         return gray, feature_image(gray, p["on"], p["alpha"], p["omega"], name)
 
     def points_on(self, g: np.ndarray, mask=None, mask_name: str = "mask"):

@@ -100,6 +100,11 @@ MATCHER_PARAMS: tuple[Param, ...] = (
     Param("guided_margin", 0.1, real(0.0), doc=(
         "uniqueness margin of the guided pass: the ZNCC of the peak must exceed the best "
         "one at least 3 px away (guided.GUIDED_SHOULDER; within +-3 px) by this much")),
+    Param("sharpness_ratio", 1.1, real(1.0, 1e6, optional=True), doc=(
+        "match_stereo: when one view's sharpness (second over first differences along its "
+        "rows) exceeds the other's by more than this factor, that view is blurred towards "
+        "the other's sharpness before detection, to within a Gaussian of 0.6 px "
+        "(hopmatch.feature.sharpness; result.sharpness); None: never, as in the paper")),
     Param("refine", True, boolean(), doc=(
         "match_stereo's sub-pixel refinement: every match's right x moved to the peak of "
         "the ZNCC of 7 x 7 grey windows along the row, by re-centred parabola fits "
@@ -138,6 +143,7 @@ PRESETS: dict[str, dict] = {
         "vertical_check": "multiple",
         "shift_check": False,
         "guided": False,
+        "sharpness_ratio": None,
         "refine": False,
         "vertical_model": "median",
     },

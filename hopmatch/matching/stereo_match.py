@@ -20,6 +20,7 @@ from ..errors import (
 )
 from ..feature.detector import DericheMoravecDetector, keypoints_from_arrays
 from ..feature.gradient import normalised_intensity
+from ..feature.sharpness import SharpnessMatch, equalise_sharpness
 from . import guided, halves
 from .confidence import confidence_distances, fields_of_distances
 from .diagnostics import LooksUnrectifiedError, warn_if_no_keypoints
@@ -128,6 +129,11 @@ class StereoMatchResult:
     geometry : EpipolarGeometry or None
         With ``rectified=False``: how F was found (bootstrap correspondences, inliers,
         median epipolar error, or the reason none was accepted).
+    sharpness : SharpnessMatch or None
+        Each view's sharpness and the Gaussian sigma it was blurred with before detection
+        (``sharpness_ratio``; :mod:`hopmatch.feature.sharpness`); with ``rectified=False``
+        measured on the left image and the right one aligned with it (None when no
+        geometry was found).
     """
 
     points_left: np.ndarray
@@ -148,6 +154,7 @@ class StereoMatchResult:
     match_timings: dict = field(default_factory=dict)
     fundamental_matrix: np.ndarray | None = None
     geometry: EpipolarGeometry | None = None
+    sharpness: SharpnessMatch | None = None
 
     def __post_init__(self):
         if self.passes is None:
@@ -300,6 +307,11 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                   and "min_disparity" not in match_params and config.preset != "paper"
                   and (matcher is None or config.min_disparity == 0.0))
 
+    given = left, right  # an unrectified pair is equalised after its warp (method.md 4.6)
+    left, right, sharpness = equalise_sharpness(detector.gray_image(left, "left"),
+                                                detector.gray_image(right, "right"),
+                                                config.sharpness_ratio)
+
     def detect(image, mask, side):
         t0 = time.perf_counter()
         out = detector.detect_and_describe(image, mask, name=side, mask_name=f"mask_{side}",
@@ -321,13 +333,14 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                  "an unrectified pair, its epipolar geometry estimated from the images "
                  "(rectified=False; result.fundamental_matrix, result.geometry); pass "
                  "rectified=True to search its rows anyway", UnrectifiedPairWarning)
-            return _match_unrectified(left, right, detector, unrectified_config, None,
+            return _match_unrectified(*given, detector, unrectified_config, None,
                                       mask_left, mask_right, record_energy)
     # after match_detected, whose checks of the pair (two heights...) come first
     (pts_l, *_, gray_l), (pts_r, *_, gray_r) = found_l, found_r
     window = detector.getDescriptorSize()
     warn_if_no_keypoints([("left", pts_l, gray_l, mask_left, window),
                           ("right", pts_r, gray_r, mask_right, window)])
+    result.sharpness = sharpness
     return result
 
 
@@ -582,7 +595,8 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
         query_idx=net.query_idx, train_idx=net.train_idx, distances=net.distances,
         network=net, keypoint_size=float(detector.getWindowSize()), timings=timings,
         match_timings={"network": timings.get("match", 0.0), "guided": 0.0, "refine": 0.0},
-        fundamental_matrix=geometry.fundamental, geometry=geometry)
+        fundamental_matrix=geometry.fundamental, geometry=geometry,
+        sharpness=None if frame is None else frame.sharpness)
     if frame is not None and frame.mode != "epipolar" and len(net.query_idx):
         result = unrectified_beyond_network(result, frame)
     for check in few_matches_check:

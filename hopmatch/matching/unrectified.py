@@ -11,8 +11,9 @@ rectified=False)``.
    section 2 says once rotation and scale between the images are gone, and the detector's
    four Moravec directions (eq. 1) only find the same points when both images face the
    same way.
-3. The sharper image is blurred to the other's sharpness (:func:`equalise_sharpness`):
-   the warp smooths the right image, and the similarity of eqs. 7-9 compares windows.
+3. The sharper image is blurred towards the other's sharpness
+   (:func:`~hopmatch.feature.sharpness.equalise_sharpness`, ``sharpness_ratio``): the warp
+   smooths the right image, and the similarity of eqs. 7-9 compares windows.
 4. The network searches rows (of the aligned pair, or of a rectification close to the
    identity) or else the epipolar band of F (:func:`search_frame`), over the disparity
    range a coarse pass finds there (:func:`network_range`). F is refitted on the
@@ -40,6 +41,7 @@ import numpy as np
 
 from .._validate import as_gray_image, as_mask, check_coordinate_range
 from ..feature.descriptor import gradient_windows
+from ..feature.sharpness import SharpnessMatch, equalise_sharpness
 from .disparity_range import coarse_extent
 from .geometry import (
     EpipolarGeometry,
@@ -67,13 +69,6 @@ INTERPOLATION = cv2.INTER_LANCZOS4
 #: directions, and the aligned right image is resampled, so its rows are less certain
 #: than a rectified pair's (docs/pipelines.md, "Which call for which pair").
 UNRECTIFIED_VERTICAL = 0.75
-#: :func:`equalise_sharpness`: images whose sharpness differs by more than this fraction
-#: are equalised, by a Gaussian of sigma at most SHARPNESS_MAX_SIGMA found in
-#: SHARPNESS_STEPS bisection steps, measured on at most SHARPNESS_PIXELS pixels.
-SHARPNESS_TOLERANCE = 0.1
-SHARPNESS_MAX_SIGMA = 2.0
-SHARPNESS_STEPS = 7
-SHARPNESS_PIXELS = 1_000_000
 #: Passes of the network: after each but the last, F is refitted on its matches and the
 #: search frame rebuilt from it.
 PASSES = 1
@@ -186,57 +181,6 @@ def fill_padding(gray: np.ndarray) -> np.ndarray:
     return out
 
 
-def sharpness(image: np.ndarray, where: np.ndarray) -> float:
-    """The share of ``image``'s variance (over ``where``) above the pass band of a Gaussian
-    of sigma 1: ``var(I - G_1 * I) / var(I)``. Resampling lowers it."""
-    f = image.astype(np.float32)
-    high = f - cv2.GaussianBlur(f, (0, 0), 1.0)
-    var = float(np.var(f[where]))
-    return float(np.mean(high[where] ** 2)) / var if var > 0 else 0.0
-
-
-def blur_to(image: np.ndarray, target: float, where: np.ndarray) -> tuple[np.ndarray, float]:
-    """``(image blurred by a Gaussian, sigma)``: the sigma in ``[0, SHARPNESS_MAX_SIGMA]``
-    (bisection, :data:`SHARPNESS_STEPS` steps) whose :func:`sharpness` is ``target``."""
-    f = image.astype(np.float32)
-    lo, hi = 0.0, SHARPNESS_MAX_SIGMA
-    for _ in range(SHARPNESS_STEPS):
-        mid = 0.5 * (lo + hi)
-        if sharpness(cv2.GaussianBlur(f, (0, 0), mid), where) > target:
-            lo = mid
-        else:
-            hi = mid
-    sigma = 0.5 * (lo + hi)
-    return cv2.GaussianBlur(f, (0, 0), sigma), sigma
-
-
-def equalise_sharpness(left_gray, warped, valid):
-    """``(left, warped, (sigma_left, sigma_right))``: the sharper of the two images blurred
-    until its :func:`sharpness` matches the other's, when they differ by more than
-    :data:`SHARPNESS_TOLERANCE`. The network compares windows of the two images (eqs.
-    7-9): an image resampled into the other's frame is smoother, and its windows then
-    differ from the other image's even where they show the same thing. Measured on the
-    valid part of the aligned right image, within a centre crop of at most
-    :data:`SHARPNESS_PIXELS` pixels."""
-    ys, xs = np.nonzero(valid)
-    if len(xs) < 1024:
-        return left_gray, warped, (0.0, 0.0)
-    cy, cx = int(np.median(ys)), int(np.median(xs))
-    half = int(np.sqrt(SHARPNESS_PIXELS)) // 2
-    win = (slice(max(0, cy - half), cy + half), slice(max(0, cx - half), cx + half))
-    where = valid[win]
-    s_l = sharpness(left_gray[win], where)
-    s_r = sharpness(warped[win], where)
-    if abs(s_l - s_r) <= SHARPNESS_TOLERANCE * max(s_l, s_r):
-        return left_gray, warped, (0.0, 0.0)
-    if s_l > s_r:
-        _, sigma = blur_to(left_gray[win], s_r, where)
-        return cv2.GaussianBlur(left_gray.astype(np.float32), (0, 0), sigma), warped, (
-            sigma, 0.0)
-    _, sigma = blur_to(warped[win], s_l, where)
-    return left_gray, cv2.GaussianBlur(warped.astype(np.float32), (0, 0), sigma), (0.0, sigma)
-
-
 def near_identity(maps, size) -> bool:
     """Whether each 3 x 3 map moves every point of a 9 x 9 grid over the image by at most
     :data:`RECTIFY_LIMIT` of its diagonal (and keeps it in front: positive w)."""
@@ -324,12 +268,16 @@ class SearchFrame:
         The right points in the left image's frame, as detected there.
     grays, gradients, descriptors : tuples of (left, aligned right)
         The images the points were detected on (the right one warped into the left frame,
-        both after :func:`equalise_sharpness`) and the points' windows.
+        both after :func:`~hopmatch.feature.sharpness.equalise_sharpness`) and the points'
+        windows.
     right_shape : tuple of int
         ``(H, W)`` of the right image as given.
     maps : tuple of two (3, 3) float64 ndarrays, or None
         ``'rectified'`` only: the maps of the left points and of the aligned right points
         into the network's frame (``q_l = H1 x_l``, ``q_r = H2 x_a``), None otherwise.
+    sharpness : SharpnessMatch or None
+        What :func:`~hopmatch.feature.sharpness.equalise_sharpness` measured and did to the
+        left image and the aligned right one.
     """
 
     mode: str
@@ -341,6 +289,7 @@ class SearchFrame:
     descriptors: tuple
     right_shape: tuple
     maps: tuple | None = None
+    sharpness: SharpnessMatch | None = None
 
 
 def match_unrectified(left, right, detector, config, *, mask_left=None, mask_right=None,
@@ -376,7 +325,8 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     left_gray = fill_padding(left_gray)
     margin = detector.getDescriptorSize() // 2 + detector.getWindowSize() // 2 + 2
     warped, valid = warp_right(right_gray, m_r, to_aligned, size, margin)
-    left_img, warped, _ = equalise_sharpness(left_gray, warped, valid)
+    left_img, warped, sharpness = equalise_sharpness(left_gray, warped,
+                                                     config.sharpness_ratio, valid)
     t2 = time.perf_counter()
     pts_l, resp_l, desc_l, g_l, gray_l = detector.detect_and_describe(
         left_img, m_l, name="left", keep_gray=True)
@@ -403,7 +353,7 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     frame = SearchFrame(mode=mode, to_aligned=to_aligned, shift=shift, right_points=pts_a,
                         grays=(gray_l, gray_r), gradients=(g_l, g_r),
                         descriptors=(desc_l, desc_r), maps=maps,
-                        right_shape=tuple(right_gray.shape[:2]))
+                        right_shape=tuple(right_gray.shape[:2]), sharpness=sharpness)
     return pts_l, resp_l, pts_r, resp_r, net, geometry, timings, frame
 
 

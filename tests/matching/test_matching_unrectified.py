@@ -301,17 +301,17 @@ def test_mask_right_is_honoured(verged):
     assert len(res.points_right) and (res.points_right[:, 0] < SIZE[0] // 2 + 1).all()
 
 
-def test_sharpness_is_equalised_by_blurring_the_sharper_image():
-    img = texture(np.random.default_rng(2), 300).astype(np.float32)
-    soft = cv2.GaussianBlur(img, (0, 0), 0.8)
-    where = np.ones(img.shape, bool)
-    assert u.sharpness(soft, where) < u.sharpness(img, where)
-    blurred, sigma = u.blur_to(img, u.sharpness(soft, where), where)
-    assert sigma == pytest.approx(0.8, abs=0.1)
-    left, right, (s_l, s_r) = u.equalise_sharpness(img, soft, where)
-    assert s_l > 0 and s_r == 0 and right is soft
-    left, right, sigmas = u.equalise_sharpness(img, img.copy(), where)
-    assert sigmas == (0.0, 0.0) and left is img
+def test_the_aligned_pair_is_equalised_and_says_so(verged):
+    """The right view blurred by 1.5 px: after its warp the left one is blurred towards it
+    (hopmatch.feature.sharpness, over the aligned image's valid pixels), and the result
+    says so; with sharpness_ratio=None nothing is blurred."""
+    left, right, _, _ = verged
+    soft = cv2.GaussianBlur(right, (0, 0), 1.5)
+    res = hopmatch.match_stereo(left, soft, rectified=False)
+    assert res.sharpness.sigma_left > 0.5 and res.sharpness.sigma_right == 0.0
+    assert res.sharpness.sharpness_left > res.sharpness.sharpness_right
+    off = hopmatch.match_stereo(left, soft, rectified=False, sharpness_ratio=None)
+    assert off.sharpness.sigma_left == off.sharpness.sigma_right == 0.0
 
 
 def test_the_refinement_window_follows_the_given_images_not_the_canvas(monkeypatch):
