@@ -105,6 +105,12 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "rows) exceeds the other's by more than this factor, that view is blurred towards "
         "the other's sharpness before detection, to within a Gaussian of 0.6 px "
         "(hopmatch.feature.sharpness; result.sharpness); None: never, as in the paper")),
+    Param("tone_tolerance", 0.04, real(0.0, optional=True), doc=(
+        "match_stereo: when the grey levels at the two ends of a first match's pairs follow "
+        "a curve that departs from a straight line by more than this fraction of its rise "
+        "(two exposures, two camera responses), the right view is mapped through the "
+        "curve and the pair matched again (hopmatch.matching.tone; result.tone_curve); "
+        "None: never, as in the paper")),
     Param("refine", True, boolean(), doc=(
         "match_stereo's sub-pixel refinement: every match's right x moved to the peak of "
         "the ZNCC of 7 x 7 grey windows along the row, by re-centred parabola fits "
@@ -144,6 +150,7 @@ PRESETS: dict[str, dict] = {
         "shift_check": False,
         "guided": False,
         "sharpness_ratio": None,
+        "tone_tolerance": None,
         "refine": False,
         "vertical_model": "median",
     },
