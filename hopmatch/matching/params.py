@@ -109,8 +109,14 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "match_stereo: when the grey levels at the two ends of a first match's pairs follow "
         "a curve that departs from a straight line by more than this fraction of its rise "
         "(two exposures, two camera responses), the right view is mapped through the "
-        "curve and the pair matched again (hopmatch.matching.tone; result.tone_curve); "
+        "curve and the pair matched again (hopmatch.matching.tone; result.tone_map); "
         "None: never, as in the paper")),
+    Param("gain_field_tolerance", 0.25, real(0.0, optional=True), doc=(
+        "match_stereo: when the gain between the two ends of a first match's pairs varies "
+        "across the right view (vignetting, uneven light) by more than this in log units "
+        "(0.25: by about a quarter), the right view is divided by that gain (with the curve of "
+        "tone_tolerance) and the pair matched again (hopmatch.matching.tone; "
+        "result.tone_map); None: never, as in the paper")),
     Param("refine", True, boolean(), doc=(
         "match_stereo's sub-pixel refinement: every match's right x moved to the peak of "
         "the ZNCC of 7 x 7 grey windows along the row, by re-centred parabola fits "
@@ -151,6 +157,7 @@ PRESETS: dict[str, dict] = {
         "guided": False,
         "sharpness_ratio": None,
         "tone_tolerance": None,
+        "gain_field_tolerance": None,
         "refine": False,
         "vertical_model": "median",
     },

@@ -30,7 +30,7 @@ from .network import PairInfo, match_pair
 from .params import MatcherConfig, matcher_config
 from .refine import REFINE_RADIUS, Refinement, refine_disparities
 from .stereo_result import PASS_GUIDED, PASS_NETWORK, StereoMatchResult
-from .tone import rematch_through_curve
+from .tone import rematch_through_map
 from .unrectified import (
     UNRECTIFIED_VERTICAL,
     empty_network_result,
@@ -217,15 +217,15 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
             return _match_unrectified(*given, detector, unrectified_config, None,
                                       mask_left, mask_right, record_energy)
 
-        def rematch(gray_right):  # the right view mapped through the pair's tone curve
+        def rematch(gray_right):  # the right view mapped through the pair's tone map
             found, t = detect(gray_right, mask_right, "right")
             return match_detected(found_l, found, config, keypoint_size=keypoint_size,
                                   fundamental=fundamental, record_energy=record_energy,
                                   timings={"detect_left": t_l, "detect_right": t_r + t},
                                   threads=threads), found
 
-        result, found_r = rematch_through_curve(result, found_l, found_r,
-                                                config.tone_tolerance, rematch)
+        result, found_r = rematch_through_map(result, found_l, found_r, config.tone_tolerance,
+                                              config.gain_field_tolerance, rematch)
     # after match_detected, whose checks of the pair (two heights...) come first
     (pts_l, *_, gray_l), (pts_r, *_, gray_r) = found_l, found_r
     window = detector.getDescriptorSize()

@@ -14,7 +14,7 @@ from .guided_results import GuidedMatches
 from .matcher import dmatches
 from .network import NetworkResult
 from .refine import Refinement
-from .tone import ToneCurve
+from .tone import ToneMap
 from .vertical import RowOffset
 
 #: ``StereoMatchResult.passes`` of a match found by the network.
@@ -78,12 +78,14 @@ class StereoMatchResult:
         (``sharpness_ratio``; :mod:`hopmatch.feature.sharpness`); with ``rectified=False``
         measured on the left image and the right one aligned with it (None when no
         geometry was found).
-    tone_curve : ToneCurve or None
-        The curve from the right view's grey levels to the left view's, read off a first
-        match (:mod:`hopmatch.matching.tone`; None: too few matches, no increasing curve,
-        ``tone_tolerance=None``, or an unrectified pair). When its ``nonlinearity``
-        exceeds ``tone_tolerance`` the right view was mapped through it and the pair
-        matched again: the matches are the second match's.
+    tone_map : ToneMap or None
+        The map from the right view's grey levels to the left view's (a curve and a gain
+        that varies across the view), read off a first match (:mod:`hopmatch.matching.tone`;
+        None: too few matches, no increasing curve, ``tone_tolerance`` and
+        ``gain_field_tolerance`` both None, or an unrectified pair). When its
+        ``nonlinearity`` exceeds ``tone_tolerance`` or its ``field_range``
+        ``gain_field_tolerance``, the right view was mapped through it and the pair matched
+        again: the matches are the second match's.
     """
 
     points_left: np.ndarray
@@ -105,7 +107,7 @@ class StereoMatchResult:
     fundamental_matrix: np.ndarray | None = None
     geometry: EpipolarGeometry | None = None
     sharpness: SharpnessMatch | None = None
-    tone_curve: ToneCurve | None = None
+    tone_map: ToneMap | None = None
 
     def __post_init__(self):
         if self.passes is None:

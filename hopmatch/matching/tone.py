@@ -1,16 +1,19 @@
-"""Two views whose grey levels differ by a curve, not a gain: a second match through the
-curve read off the first match (beyond the paper; docs/method.md section 4.7).
+"""Two views whose grey levels differ by more than a gain: a second match through the
+map read off the first match (beyond the paper; docs/method.md section 4.7).
 
 Two exposures of one scene, or one camera's response to another's, map grey levels
-through a monotone curve. The per-image normalisation and ``gain_tolerance`` absorb a
-gain, and the guided pass's ZNCC a gain per window, but the network's similarity (eq. 7)
-compares windows of the gradient image, whose contrast a curve changes by a different
-factor at every grey level: on the shared MotorcycleE pair (two exposures) the network
-finds half the matches it finds on motorcycle. A histogram says little about such a
-curve (two views show different parts of a scene), but the pair's own matches do: the
-grey levels at their two ends follow the curve. :func:`tone_curve` fits it (a cubic,
-robustly) and measures how far it departs from a straight line; where that exceeds
-``tone_tolerance``, ``match_stereo`` maps the right view through the curve and matches
+through a monotone curve; two lenses darken their corners differently (vignetting), a
+gain that varies across the image. The per-image normalisation and ``gain_tolerance``
+absorb one gain for the whole view, and the guided pass's ZNCC a gain per window, but the
+network's similarity (eq. 7) compares windows of the gradient image, whose contrast a
+curve or a varying gain changes window by window: on the shared MotorcycleE pair (two
+exposures) the network finds half the matches it finds on motorcycle. A histogram says
+little about such a map (two views show different parts of a scene), but the pair's own
+matches do: the grey levels at their two ends follow it. :func:`tone_map` fits ``left =
+curve(right) x gain(x, y)`` (a cubic, and the exponential of a quadratic of the right
+point's position), robustly, and measures how far the curve departs from a straight line
+and how much the gain varies; where either exceeds its tolerance (``tone_tolerance``,
+``gain_field_tolerance``), ``match_stereo`` maps the right view through it and matches
 the pair again.
 """
 
@@ -20,9 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: Fewest matches a curve is read from (fewer: no curve).
+#: Fewest matches a map is read from (fewer: no map).
 MIN_MATCHES = 200
-#: Most matches a curve is read from (evenly spaced in the matches' order).
+#: Most matches a map is read from (evenly spaced in the matches' order).
 MAX_MATCHES = 1000
 #: The grey level at a point is the mean of the 3 x 3 bilinear samples at offsets of this
 #: many px around it: a match's two ends agree to a fraction of a pixel, and the average
@@ -30,29 +33,45 @@ MAX_MATCHES = 1000
 SMOOTHING = 1.0
 #: Degree of the curve.
 DEGREE = 3
-#: Rounds of fitting; each keeps the matches within ``TRIM`` robust standard deviations of
-#: the last fit (wrong matches, occlusions).
+#: Rounds of fitting: each fits the curve with the gain fixed, then the gain with the
+#: curve fixed, on the matches within ``TRIM`` robust standard deviations of the last fit
+#: (wrong matches, occlusions).
 ROUNDS = 3
 TRIM = 3.0
-#: The right view's grey levels between these percentiles of the matches' span the fit's
-#: unit interval; beyond it the curve is continued by its end slopes.
+#: The right view's grey levels between these percentiles of the matches' span the
+#: curve's unit interval; beyond it the curve is continued by its end slopes.
 SPAN_PERCENTILES = (1.0, 99.0)
+#: Matches whose grey levels (either end, or the curve's value) lie below this fraction of
+#: the span do not inform the gain (a ratio of two dark levels is mostly noise).
+DARK = 0.05
 
 
 @dataclass(frozen=True)
-class ToneCurve:
-    """A monotone map of the right view's grey levels onto the left view's.
+class ToneMap:
+    """A map of the right view's grey levels onto the left view's: ``left = curve(right) x
+    exp(field(x, y))``, (x, y) in the right view.
 
     Attributes
     ----------
     coefficients : (DEGREE + 1,) float64 ndarray
-        The cubic (``np.polyval`` order) of ``t = (r - low) / (high - low)``.
+        The curve, a cubic (``np.polyval`` order) of ``t = (r - low) / (high - low)``.
     low, high : float
         The right grey levels mapped to ``t = 0`` and ``t = 1``.
+    field : (6,) float64 ndarray
+        The log gain, ``f0 + f1 u + f2 v + f3 u^2 + f4 u v + f5 v^2`` with ``u = (x - w/2)
+        / (w/2)`` and ``v = (y - h/2) / (h/2)``.
+    shape : tuple of int
+        ``(h, w)`` of the right view.
+    field_bounds : tuple of float
+        The least and largest log gain at the matches: the field is clipped to them
+        (beyond the matches a quadratic is an extrapolation).
     nonlinearity : float
         Largest distance over ``t`` in [0, 1] between the curve and the straight line
         fitted to the same matches, as a fraction of that line's rise (0 for a gain and an
         offset).
+    field_range : float
+        ``field_bounds[1] - field_bounds[0]``: how much the log gain varies across the
+        matches (0 for one gain everywhere; 0.4 is a gain that varies by half).
     n_matches : int
         Matches the last fit kept.
     """
@@ -60,18 +79,42 @@ class ToneCurve:
     coefficients: np.ndarray
     low: float
     high: float
+    field: np.ndarray
+    shape: tuple
+    field_bounds: tuple
     nonlinearity: float
+    field_range: float
     n_matches: int
 
-    def apply(self, gray: np.ndarray) -> np.ndarray:
-        """``gray`` (the right view) mapped through the curve, float32; outside ``[low,
-        high]`` continued by the curve's slope at that end."""
-        t = (np.asarray(gray, dtype=np.float64) - self.low) / (self.high - self.low)
+    def curve(self, levels: np.ndarray) -> np.ndarray:
+        """The curve at right grey ``levels`` (float64); outside ``[low, high]`` continued
+        by its slope at that end."""
+        t = (np.asarray(levels, dtype=np.float64) - self.low) / (self.high - self.low)
         slope = np.polyder(self.coefficients)
         inside = np.polyval(self.coefficients, np.clip(t, 0.0, 1.0))
         below = np.minimum(t, 0.0) * np.polyval(slope, 0.0)
         above = np.maximum(t - 1.0, 0.0) * np.polyval(slope, 1.0)
-        return (inside + below + above).astype(np.float32)
+        return inside + below + above
+
+    def log_gain(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """The log gain at right-view positions ``(x, y)``, clipped to ``field_bounds``."""
+        return np.clip(field_terms(x, y, self.shape) @ self.field, *self.field_bounds)
+
+    def apply(self, gray: np.ndarray) -> np.ndarray:
+        """``gray`` (the right view) mapped through the curve and the gain, float32."""
+        h, w = self.shape
+        gain = np.exp(self.log_gain(np.arange(w, dtype=np.float64)[None, :].repeat(h, 0),
+                                    np.arange(h, dtype=np.float64)[:, None].repeat(w, 1)))
+        return (self.curve(gray) * gain).astype(np.float32)
+
+
+def field_terms(x: np.ndarray, y: np.ndarray, shape) -> np.ndarray:
+    """``(..., 6)``: the terms ``1, u, v, u^2, u v, v^2`` of :attr:`ToneMap.field` at
+    ``(x, y)`` in a view of ``shape`` ``(h, w)``."""
+    h, w = shape
+    u = (np.asarray(x, dtype=np.float64) - 0.5 * w) / (0.5 * w)
+    v = (np.asarray(y, dtype=np.float64) - 0.5 * h) / (0.5 * h)
+    return np.stack([np.ones_like(u), u, v, u * u, u * v, v * v], axis=-1)
 
 
 def grey_levels(gray: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -93,59 +136,76 @@ def grey_levels(gray: np.ndarray, points: np.ndarray) -> np.ndarray:
     return ((1 - ay) * top + ay * bottom).reshape(len(p), 9).mean(axis=1)
 
 
-def tone_curve(gray_left: np.ndarray, gray_right: np.ndarray, points_left: np.ndarray,
-               points_right: np.ndarray) -> ToneCurve | None:
-    """The curve that maps the right view's grey levels onto the left view's, read at the
-    two ends of each match (``points_left[i]`` with ``points_right[i]``; at most
+def tone_map(gray_left: np.ndarray, gray_right: np.ndarray, points_left: np.ndarray,
+             points_right: np.ndarray) -> ToneMap | None:
+    """The map from the right view's grey levels onto the left view's, read at the two
+    ends of each match (``points_left[i]`` with ``points_right[i]``; at most
     :data:`MAX_MATCHES` of them); None with fewer than :data:`MIN_MATCHES` matches, a flat
     right view, or a curve that is not increasing over the matches' span.
 
-    A least-squares cubic, refitted :data:`ROUNDS` times on the matches within
-    :data:`TRIM` robust standard deviations (1.4826 x the median absolute residual) of the
-    last fit."""
-    if len(points_left) < MIN_MATCHES:
-        return None
+    :data:`ROUNDS` rounds, each on the matches within :data:`TRIM` robust standard
+    deviations (1.4826 x the median absolute residual) of the last round's map: the curve
+    by least squares with the gain fixed (1 at first), then the log gain by least squares
+    with the curve fixed (on the matches brighter than :data:`DARK`)."""
     n = len(points_left)
-    take = (np.arange(n) if n <= MAX_MATCHES
-            else np.linspace(0, n - 1, MAX_MATCHES).astype(np.int64))
+    if n < MIN_MATCHES:
+        return None
+    take = np.arange(n) if n <= MAX_MATCHES else np.linspace(0, n - 1, MAX_MATCHES).astype(
+        np.int64)
+    right_points = np.asarray(points_right, dtype=np.float64)[take]
     left = grey_levels(gray_left, np.asarray(points_left)[take])
-    right = grey_levels(gray_right, np.asarray(points_right)[take])
+    right = grey_levels(gray_right, right_points)
     low, high = np.percentile(right, SPAN_PERCENTILES)
     if not high > low:
         return None
     t = (right - low) / (high - low)
+    terms = field_terms(right_points[:, 0], right_points[:, 1], np.shape(gray_right)[:2])
+    field = np.zeros(terms.shape[1])
     keep = np.ones(len(t), dtype=bool)
+    floor = np.percentile(left, SPAN_PERCENTILES[0]) + DARK * (np.ptp(left) or 1.0)
     for _ in range(ROUNDS):
-        coefficients = np.polyfit(t[keep], left[keep], DEGREE)
-        residual = np.abs(left - np.polyval(coefficients, t))
-        scale = 1.4826 * np.median(residual[keep])
-        keep = residual <= TRIM * scale + 1e-9
+        gain = np.exp(terms @ field)
+        coefficients = np.polyfit(t[keep], (left / gain)[keep], DEGREE)
+        at = np.polyval(coefficients, t)
+        bright = keep & (at > floor) & (left > floor)
+        if bright.sum() >= MIN_MATCHES:
+            field = np.linalg.lstsq(terms[bright], np.log(left[bright] / at[bright]),
+                                    rcond=None)[0]
+        residual = np.abs(left - at * np.exp(terms @ field))
+        keep = residual <= TRIM * 1.4826 * np.median(residual[keep]) + 1e-9
         if keep.sum() < MIN_MATCHES:
             return None
-    coefficients = np.polyfit(t[keep], left[keep], DEGREE)
-    line = np.polyfit(t[keep], left[keep], 1)
+    gain = np.exp(terms @ field)
+    coefficients = np.polyfit(t[keep], (left / gain)[keep], DEGREE)
+    line = np.polyfit(t[keep], (left / gain)[keep], 1)
     grid = np.linspace(0.0, 1.0, 101)
     curve = np.polyval(coefficients, grid)
-    rise = abs(line[0])
-    if not (np.diff(curve) > 0).all() or not rise > 0:
+    if not (np.diff(curve) > 0).all() or not line[0] > 0:
         return None
-    nonlinearity = float(np.abs(curve - np.polyval(line, grid)).max() / rise)
-    return ToneCurve(coefficients, float(low), float(high), nonlinearity, int(keep.sum()))
+    log_gain = terms[keep] @ field
+    bounds = (float(log_gain.min()), float(log_gain.max()))
+    return ToneMap(coefficients=coefficients, low=float(low), high=float(high), field=field,
+                   shape=tuple(np.shape(gray_right)[:2]), field_bounds=bounds,
+                   nonlinearity=float(np.abs(curve - np.polyval(line, grid)).max() / line[0]),
+                   field_range=bounds[1] - bounds[0], n_matches=int(keep.sum()))
 
 
-def rematch_through_curve(result, found_left, found_right, tolerance: float | None,
-                          rematch):
+def rematch_through_map(result, found_left, found_right, tone_tolerance: float | None,
+                        field_tolerance: float | None, rematch):
     """``(result, found_right)``: ``result`` (a first match, whose detection of each view
     gave ``found_left`` and ``found_right``: ``(points, responses, descriptors, G,
-    grey)``) with its :func:`tone_curve` recorded as ``result.tone_curve``; or, when
-    that curve's nonlinearity exceeds ``tolerance`` (None: never), what ``rematch(grey)``
-    returns for the right grey view mapped through the curve (``(result, found_right)`` of
-    a second detection of the right view and a second match), with the curve recorded."""
-    if tolerance is None:
+    grey)``) with its :func:`tone_map` recorded as ``result.tone_map``; or, when the map's
+    ``nonlinearity`` exceeds ``tone_tolerance`` or its ``field_range`` exceeds
+    ``field_tolerance`` (None: never), what ``rematch(grey)`` returns for the right grey
+    view mapped through it (``(result, found_right)`` of a second detection of the right
+    view and a second match), with the map recorded."""
+    if tone_tolerance is None and field_tolerance is None:
         return result, found_right
-    curve = tone_curve(found_left[4], found_right[4], result.matched_left,
-                       result.matched_right)
-    if curve is not None and curve.nonlinearity > tolerance:
-        result, found_right = rematch(curve.apply(found_right[4]))
-    result.tone_curve = curve
+    found = tone_map(found_left[4], found_right[4], result.matched_left,
+                     result.matched_right)
+    if found is not None and (
+            (tone_tolerance is not None and found.nonlinearity > tone_tolerance)
+            or (field_tolerance is not None and found.field_range > field_tolerance)):
+        result, found_right = rematch(found.apply(found_right[4]))
+    result.tone_map = found
     return result, found_right

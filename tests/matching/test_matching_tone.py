@@ -1,5 +1,6 @@
-"""hopmatch.matching.tone: the curve between two views' grey levels, read off a first
-match, and the second match through it (``tone_tolerance``)."""
+"""hopmatch.matching.tone: the map between two views' grey levels (a curve and a gain
+that varies across the view), read off a first match, and the second match through it
+(``tone_tolerance``, ``gain_field_tolerance``)."""
 
 from __future__ import annotations
 
@@ -42,8 +43,8 @@ def _pair_points(n=3000, seed=0, shape=(240, 320)):
 
 def test_a_gain_and_offset_read_as_a_straight_line():
     left, right, pl, pr = _pair_points()
-    curve = tone.tone_curve(left, 0.7 * right + 12.0, pl, pr)
-    assert curve is not None and curve.nonlinearity < 0.005
+    curve = tone.tone_map(left, 0.7 * right + 12.0, pl, pr)
+    assert curve is not None and curve.nonlinearity < 0.005 and curve.field_range < 0.01
     # right column x shows left column x + 6
     np.testing.assert_allclose(curve.apply(0.7 * right + 12.0)[:, :-6], left[:, 6:],
                                atol=0.5)
@@ -52,8 +53,8 @@ def test_a_gain_and_offset_read_as_a_straight_line():
 def test_a_gamma_is_recovered_and_undone():
     left, right, pl, pr = _pair_points(seed=2)
     curved = 255.0 * (right / 255.0) ** 1.8
-    curve = tone.tone_curve(left, curved, pl, pr)
-    assert curve is not None and curve.nonlinearity > 0.04
+    curve = tone.tone_map(left, curved, pl, pr)
+    assert curve is not None and curve.nonlinearity > 0.04 and curve.field_range < 0.02
     mapped, seen = curve.apply(curved)[:, :-6], left[:, 6:]
     inside = ((curved >= curve.low) & (curved <= curve.high))[:, :-6]
     assert np.median(np.abs(mapped - seen)[inside]) < 1.0
@@ -64,28 +65,56 @@ def test_wrong_matches_are_trimmed():
     left, right, pl, pr = _pair_points(seed=3)
     pr = pr.copy()
     pr[::5] = np.random.default_rng(1).uniform([8, 4], [300, 230], (len(pr[::5]), 2))
-    curve = tone.tone_curve(left, 0.5 * right, pl, pr)
+    curve = tone.tone_map(left, 0.5 * right, pl, pr)
     assert curve.nonlinearity < 0.01 and curve.n_matches < 0.9 * min(len(pl),
                                                                     tone.MAX_MATCHES)
 
 
-def test_too_few_matches_or_a_flat_view_give_no_curve():
+def test_too_few_matches_or_a_flat_view_give_no_map():
     left, right, pl, pr = _pair_points(n=tone.MIN_MATCHES - 1)
-    assert tone.tone_curve(left, right, pl, pr) is None
+    assert tone.tone_map(left, right, pl, pr) is None
     left, right, pl, pr = _pair_points()
-    assert tone.tone_curve(left, np.full_like(right, 40.0), pl, pr) is None
+    assert tone.tone_map(left, np.full_like(right, 40.0), pl, pr) is None
 
 
-def test_a_decreasing_map_gives_no_curve():
+def test_a_decreasing_map_gives_no_map():
     left, right, pl, pr = _pair_points(seed=4)
-    assert tone.tone_curve(left, 255.0 - right, pl, pr) is None
+    assert tone.tone_map(left, 255.0 - right, pl, pr) is None
+
+
+def _map(field=(0.0,) * 6, bounds=(0.0, 0.0), shape=(1, 5)):
+    return tone.ToneMap(np.array([0.0, 0.0, 100.0, 10.0]), 20.0, 120.0, np.array(field),
+                        shape, bounds, 0.0, bounds[1] - bounds[0], 500)
 
 
 def test_apply_continues_the_end_slopes():
-    curve = tone.ToneCurve(np.array([0.0, 0.0, 100.0, 10.0]), 20.0, 120.0, 0.0, 500)
-    out = curve.apply(np.array([0.0, 20.0, 70.0, 120.0, 220.0]))
-    np.testing.assert_allclose(out, [-10.0, 10.0, 60.0, 110.0, 210.0], atol=1e-4)
+    out = _map().apply(np.array([[0.0, 20.0, 70.0, 120.0, 220.0]]))
+    np.testing.assert_allclose(out, [[-10.0, 10.0, 60.0, 110.0, 210.0]], atol=1e-4)
     assert out.dtype == np.float32
+
+
+def test_apply_multiplies_by_the_clipped_gain():
+    """log gain = 0.5 u (u = -1 at x = 0, +1 at x = w): clipped to the bounds given."""
+    m = _map(field=(0.0, 0.5, 0.0, 0.0, 0.0, 0.0), bounds=(-0.2, 0.3), shape=(2, 4))
+    x = np.arange(4.0)
+    expected_log = np.clip(0.5 * (x - 2.0) / 2.0, -0.2, 0.3)
+    out = m.apply(np.full((2, 4), 70.0))
+    np.testing.assert_allclose(out, 60.0 * np.exp(expected_log)[None, :].repeat(2, 0),
+                               rtol=1e-6)
+
+
+def test_vignetting_is_read_as_a_gain_field_and_undone():
+    """The right view darkened towards its corners by ``1 - 0.4 r^2`` (r = 1 at a corner):
+    a field that varies by about half, and no curve."""
+    left, right, pl, pr = _pair_points(seed=5)
+    h, w = right.shape
+    ys, xs = np.mgrid[0:h, 0:w]
+    r2 = ((xs - w / 2) / (w / 2)) ** 2 / 2 + ((ys - h / 2) / (h / 2)) ** 2 / 2
+    vignetted = right * (1 - 0.4 * r2)
+    found = tone.tone_map(left, vignetted, pl, pr)
+    assert found.field_range > 0.3 and found.nonlinearity < 0.02
+    mapped, seen = found.apply(vignetted)[:, :-6], left[:, 6:]
+    assert np.median(np.abs(mapped - seen)) < 1.0
 
 
 def _exposed_pair():
@@ -97,29 +126,35 @@ def _exposed_pair():
     return left, right
 
 
-def test_match_stereo_matches_again_through_the_curve():
-    """Above the tolerance the matches are those of the right view mapped through the
-    first match's curve; with tone_tolerance=None there is no curve."""
+def test_match_stereo_matches_again_through_the_map():
+    """Above a tolerance the matches are those of the right view mapped through the first
+    match's map; with both tolerances None there is no map."""
     left, right = _exposed_pair()
     params = dict(max_disparity=16, sharpness_ratio=None)
-    res = hopmatch.match_stereo(left, right, tone_tolerance=0.04, **params)
-    curve = res.tone_curve
-    assert curve is not None and curve.nonlinearity > 0.04
-    again = hopmatch.match_stereo(left, curve.apply(right), tone_tolerance=None, **params)
+    res = hopmatch.match_stereo(left, right, tone_tolerance=0.04, gain_field_tolerance=None,
+                                **params)
+    found = res.tone_map
+    assert found is not None and found.nonlinearity > 0.04
+    again = hopmatch.match_stereo(left, found.apply(right), tone_tolerance=None,
+                                  gain_field_tolerance=None, **params)
     np.testing.assert_array_equal(res.matched_left, again.matched_left)
     np.testing.assert_array_equal(res.matched_right, again.matched_right)
-    off = hopmatch.match_stereo(left, right, tone_tolerance=None, **params)
-    assert off.tone_curve is None
-    high = hopmatch.match_stereo(left, right, tone_tolerance=10.0, **params)
-    assert high.tone_curve.nonlinearity == pytest.approx(curve.nonlinearity)
+    off = hopmatch.match_stereo(left, right, tone_tolerance=None, gain_field_tolerance=None,
+                                **params)
+    assert off.tone_map is None
+    high = hopmatch.match_stereo(left, right, tone_tolerance=10.0, gain_field_tolerance=10.0,
+                                 **params)
+    assert high.tone_map.nonlinearity == pytest.approx(found.nonlinearity)
     np.testing.assert_array_equal(high.matched_left, off.matched_left)
 
 
 def test_the_paper_never_remaps_and_the_tolerance_is_checked():
     left, right = _exposed_pair()
     paper = hopmatch.match_stereo(left, right, preset="paper")
-    assert paper.tone_curve is None and paper.network.config.tone_tolerance is None
-    with pytest.raises(ValueError, match="tone_tolerance"):
-        hopmatch.match_stereo(left, right, tone_tolerance=-0.1)
-    with pytest.raises(TypeError, match="tone_tolerance"):
-        hopmatch.match_stereo(left, right, tone_tolerance="0.1")
+    assert paper.tone_map is None and paper.network.config.tone_tolerance is None
+    assert paper.network.config.gain_field_tolerance is None
+    for name in ("tone_tolerance", "gain_field_tolerance"):
+        with pytest.raises(ValueError, match=name):
+            hopmatch.match_stereo(left, right, **{name: -0.1})
+        with pytest.raises(TypeError, match=name):
+            hopmatch.match_stereo(left, right, **{name: "0.1"})
