@@ -1,7 +1,8 @@
 """Unrectified pairs and self-finding disparity ranges (issue 18): the figures of its goals.
 
 Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large ranges]
-[--verge DEG] [--scenes NAME ...] [--refine-radius N] [--large-scene NAME --large-factor F]``
+[--verge DEG] [--defaults] [--scenes NAME ...] [--refine-radius N] [--large-scene NAME
+--large-factor F]``
 (single thread; needs ``../shared/data`` or ``$HOPMATCH_SHARED_DATA`` for every section but
 ``large``).
 
@@ -14,9 +15,13 @@ Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large 
   correct@1px as ``hopmatch eval`` scores it), ``bound`` the share of those reference
   matches whose right point stays in the warped image. ``F err`` is the distance of 2000
   true correspondences (from the ground truth) to the epipolar lines of the returned F:
-  median and 95th percentile, px. ``--verge DEG``: every perturbation after the right
-  camera turned by DEG degrees about its vertical axis (a homography, ``K R K^-1`` with a
-  focal length of the image's width: a verged rig, whose rows no similarity aligns).
+  median and 95th percentile, px; ``search`` how the pair was searched (``rows``: as a
+  rectified pair). ``--defaults``: ``match_stereo(left, right)`` with no parameter instead
+  (the rectification check decides whether the pair is matched as unrectified), over
+  :data:`DEFAULTS_PERTURBATIONS` (smaller ones too). ``--verge DEG``: every perturbation
+  after the right camera turned by DEG degrees about its vertical axis (a homography,
+  ``K R K^-1`` with a focal length of the image's width: a verged rig, whose rows no
+  similarity aligns).
 - ``chessboards``: OpenCV's 13 chessboard pairs, raw and undistorted with their
   calibration (intrinsics by ``cv2.calibrateCamera``, extrinsics by ``cv2.stereoCalibrate``
   of the chessboard corners, as ``examples/stereo_calibration.py`` does); the share of
@@ -88,6 +93,8 @@ from hopmatch.stereo import StereoCalibration, epipolar_distances  # noqa: E402
 #: (rotation in degrees, vertical shift in px, scale) of the right image: the extremes of
 #: the issue's range both ways, and the pair of its "where it stands" paragraph.
 PERTURBATIONS = ((5.0, 30.0, 1.03), (-5.0, -30.0, 0.97), (2.0, 8.0, 1.0))
+#: ``--defaults``: also smaller perturbations, which a rectification check may let pass.
+DEFAULTS_PERTURBATIONS = ((0.5, 2.0, 1.0), (1.0, 4.0, 1.0), (-3.0, -15.0, 0.99)) + PERTURBATIONS
 SECTIONS = ("perturbed", "chessboards", "large", "ranges", "truth")
 PATTERN = (9, 6)
 #: The scenes of the ``truth`` section by default: the large pair's and Middlebury 2014's.
@@ -248,8 +255,9 @@ def f_error(F, scene, A, rng) -> tuple[float, float]:
     return float(np.median(e)), float(np.percentile(e, 95))
 
 
-def perturbed(names, perturbations, verge=0.0) -> None:
-    print("## Perturbed pairs: match_stereo(left, right, rectified=False)"
+def perturbed(names, perturbations, verge=0.0, defaults=False) -> None:
+    call = "match_stereo(left, right)" if defaults else "match_stereo(left, right, rectified=False)"
+    print(f"## Perturbed pairs: {call}"
           + (f", the right camera also verged by {verge:g} degrees" if verge else "") + "\n")
     print("| scene | rotation, shift, scale | matches | correct | precision | ref | ratio | "
           "bound | F err median / p95 | search | s |")
@@ -268,7 +276,8 @@ def perturbed(names, perturbations, verge=0.0) -> None:
             t0 = time.perf_counter()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                r = hopmatch.match_stereo(scene.left, right, rectified=False)
+                r = hopmatch.match_stereo(scene.left, right,
+                                          **({} if defaults else {"rectified": False}))
             seconds = time.perf_counter() - t0
             t, known = truth(r.matched_left, scene.disparity, A)
             ok = known & (np.hypot(*(r.matched_right - t[:, :2]).T) <= 1.0)
@@ -287,7 +296,8 @@ def perturbed(names, perturbations, verge=0.0) -> None:
             f_medians.append(fe[0])
             print(f"| {name} | {angle:+g} deg, {dy:+g} px, x{scale:g} | {len(r.query_idx)} | {c} | "
                   f"{p:.3f} | {ref} | {ratio:.2f} | {bound:.2f} | {fe[0]:.2f} / {fe[1]:.2f} | "
-                  f"{r.geometry.search} | {seconds:.2f} |", flush=True)
+                  f"{r.geometry.search if r.geometry else 'rows'} | {seconds:.2f} |",
+                  flush=True)
     print(f"\nAll pairs: {tot_c} correct of {tot_n} scored (pooled precision {tot_c / tot_n:.4f}), "
           f"{tot_c / tot_ref:.3f}x the reference's {tot_ref} correct; per pair: ratio mean "
           f"{np.nanmean(ratios):.3f}, min {np.nanmin(ratios):.2f}; precision min "
@@ -543,6 +553,9 @@ def main(argv=None) -> int:
     ap.add_argument("--verge", type=float, default=0.0,
                     help="perturbed: the right camera also turned by this many degrees "
                          "about its vertical axis (a verged rig; default 0)")
+    ap.add_argument("--defaults", action="store_true",
+                    help="perturbed: match_stereo(left, right) with no parameter (the "
+                         "rectification check decides), over smaller perturbations too")
     ap.add_argument("--large-scene", default="motorcycle",
                     help="large: the scene upsampled (default motorcycle)")
     ap.add_argument("--large-factor", type=float, default=None,
@@ -566,8 +579,8 @@ def main(argv=None) -> int:
         elif not shared and section == "chessboards":
             print("## Chessboard pairs: skipped (no shared data)\n")
         elif section == "perturbed":
-            perturbed(names, PERTURBATIONS[:1] if args.smoke else PERTURBATIONS,
-                      args.verge)
+            chosen = DEFAULTS_PERTURBATIONS if args.defaults else PERTURBATIONS
+            perturbed(names, chosen[:1] if args.smoke else chosen, args.verge, args.defaults)
         elif section == "chessboards":
             chessboards(args.smoke)
         elif section == "ranges":

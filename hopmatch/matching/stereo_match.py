@@ -487,7 +487,8 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
         network=net, keypoint_size=float(detector.getWindowSize()), timings=timings,
         match_timings={"network": timings.get("match", 0.0), "guided": 0.0, "refine": 0.0},
         fundamental_matrix=geometry.fundamental, geometry=geometry,
-        sharpness=None if frame is None else frame.sharpness)
+        sharpness=None if frame is None else frame.sharpness,
+        tone_map=None if frame is None else frame.tone_map)
     if frame is not None and frame.mode != "epipolar" and len(net.query_idx):
         result = unrectified_beyond_network(result, frame)
     for check in few_matches_check:

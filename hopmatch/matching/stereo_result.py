@@ -81,11 +81,13 @@ class StereoMatchResult:
     tone_map : ToneMap or None
         The map from the right view's grey levels to the left view's (a curve and a gain
         that varies across the view), read off a first match (:mod:`hopmatch.matching.tone`;
-        None: too few matches, no increasing curve, ``tone_tolerance`` and
-        ``gain_field_tolerance`` both None, or an unrectified pair). When its
+        None: too few matches, no increasing curve, or ``tone_tolerance`` and
+        ``gain_field_tolerance`` both None; with ``rectified=False`` read on the left image
+        and the right one aligned with it). When its
         ``nonlinearity`` exceeds ``tone_tolerance`` or its ``field_range``
         ``gain_field_tolerance``, the right view was mapped through it and the pair matched
-        again: the matches are the second match's.
+        again, and where that found more matches they are returned
+        (``tone_map.used``).
     """
 
     points_left: np.ndarray

@@ -19,7 +19,7 @@ the pair again.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -74,6 +74,10 @@ class ToneMap:
         matches (0 for one gain everywhere; 0.4 is a gain that varies by half).
     n_matches : int
         Matches the last fit kept.
+    used : bool
+        Whether the matches returned are those of the right view mapped through this map:
+        it called for a second match (:func:`needs_rematch`) and that match found more
+        pairs than the first.
     """
 
     coefficients: np.ndarray
@@ -85,6 +89,7 @@ class ToneMap:
     nonlinearity: float
     field_range: float
     n_matches: int
+    used: bool = False
 
     def curve(self, levels: np.ndarray) -> np.ndarray:
         """The curve at right grey ``levels`` (float64); outside ``[low, high]`` continued
@@ -190,6 +195,14 @@ def tone_map(gray_left: np.ndarray, gray_right: np.ndarray, points_left: np.ndar
                    field_range=bounds[1] - bounds[0], n_matches=int(keep.sum()))
 
 
+def needs_rematch(found: ToneMap, tone_tolerance: float | None,
+                  field_tolerance: float | None) -> bool:
+    """Whether ``found``'s curve departs from a line by more than ``tone_tolerance`` or its
+    gain varies by more than ``field_tolerance`` (None: that part never calls for it)."""
+    return ((tone_tolerance is not None and found.nonlinearity > tone_tolerance)
+            or (field_tolerance is not None and found.field_range > field_tolerance))
+
+
 def rematch_through_map(result, found_left, found_right, tone_tolerance: float | None,
                         field_tolerance: float | None, rematch):
     """``(result, found_right)``: ``result`` (a first match, whose detection of each view
@@ -198,14 +211,17 @@ def rematch_through_map(result, found_left, found_right, tone_tolerance: float |
     ``nonlinearity`` exceeds ``tone_tolerance`` or its ``field_range`` exceeds
     ``field_tolerance`` (None: never), what ``rematch(grey)`` returns for the right grey
     view mapped through it (``(result, found_right)`` of a second detection of the right
-    view and a second match), with the map recorded."""
+    view and a second match) when that match has more pairs than the first, with the map
+    recorded (``used`` True). A map read off a first match with many wrong pairs can be
+    wrong itself; the count keeps such a second match from replacing a better first."""
     if tone_tolerance is None and field_tolerance is None:
         return result, found_right
     found = tone_map(found_left[4], found_right[4], result.matched_left,
                      result.matched_right)
-    if found is not None and (
-            (tone_tolerance is not None and found.nonlinearity > tone_tolerance)
-            or (field_tolerance is not None and found.field_range > field_tolerance)):
-        result, found_right = rematch(found.apply(found_right[4]))
+    if found is not None and needs_rematch(found, tone_tolerance, field_tolerance):
+        second, second_right = rematch(found.apply(found_right[4]))
+        if len(second.query_idx) > len(result.query_idx):
+            result, found_right = second, second_right
+            found = replace(found, used=True)
     result.tone_map = found
     return result, found_right

@@ -52,6 +52,7 @@ from .geometry import (
     transform_points,
 )
 from .network import NetworkResult, PairInfo, match_pair, run_hopfield_network
+from .tone import ToneMap, needs_rematch, tone_map
 
 #: A range in the search frame: an extent widened on each side by this fraction of its
 #: span, plus 1 % of the width and 2 px ...
@@ -278,6 +279,11 @@ class SearchFrame:
     sharpness : SharpnessMatch or None
         What :func:`~hopmatch.feature.sharpness.equalise_sharpness` measured and did to the
         left image and the aligned right one.
+    tone_map : ToneMap or None
+        The map between their grey levels read off the network's matches
+        (:func:`~hopmatch.matching.tone.tone_map`); when its second match was kept
+        (``tone_map.used``), the right points, windows and images are those of the aligned
+        right view mapped through it.
     """
 
     mode: str
@@ -290,6 +296,7 @@ class SearchFrame:
     right_shape: tuple
     maps: tuple | None = None
     sharpness: SharpnessMatch | None = None
+    tone_map: ToneMap | None = None
 
 
 def match_unrectified(left, right, detector, config, *, mask_left=None, mask_right=None,
@@ -345,6 +352,22 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
             if refit is geometry:
                 break
             geometry = refit
+    tone = tone_map(gray_l, gray_r, pts_l[net.query_idx], pts_a[net.train_idx]) if (
+        config.tone_tolerance is not None or config.gain_field_tolerance is not None) else None
+    if tone is not None and needs_rematch(tone, config.tone_tolerance,
+                                          config.gain_field_tolerance):
+        # the aligned right view mapped through the pair's tone map, detected and searched
+        # again along the same geometry (docs/method.md 4.7)
+        found = detector.detect_and_describe(tone.apply(gray_r), valid, name="right",
+                                             keep_gray=True)
+        again = None if few_matches_later is None else []
+        second = search(geometry, to_aligned, pts_l, found[0], desc_l, found[2], size, config,
+                        record_energy, few_matches_later=again)
+        if len(second[0].query_idx) > len(net.query_idx):  # as rematch_through_map keeps it
+            (pts_a, resp_r, desc_r, g_r, gray_r), pending = found, again
+            net, mode, shift, maps = second
+            pts_r = transform_points(pts_a, np.linalg.inv(to_aligned))
+            tone = dataclasses.replace(tone, used=True)
     if pending:
         few_matches_later.extend(pending)
     timings.update(align=t2 - t1, detect_left=t3 - t2, detect_right=t4 - t3,
@@ -353,7 +376,8 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     frame = SearchFrame(mode=mode, to_aligned=to_aligned, shift=shift, right_points=pts_a,
                         grays=(gray_l, gray_r), gradients=(g_l, g_r),
                         descriptors=(desc_l, desc_r), maps=maps,
-                        right_shape=tuple(right_gray.shape[:2]), sharpness=sharpness)
+                        right_shape=tuple(right_gray.shape[:2]), sharpness=sharpness,
+                        tone_map=tone)
     return pts_l, resp_l, pts_r, resp_r, net, geometry, timings, frame
 
 

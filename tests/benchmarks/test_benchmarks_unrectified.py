@@ -140,3 +140,17 @@ def test_a_verged_perturbation_and_its_truth_agree():
     top, bottom = m.apply(m.perturbation((320, 240), 0.0, 0.0, 1.0, 4.0), corners).reshape(
         2, 2, 2)
     assert abs((bottom[0, 1] - top[0, 1]) - (bottom[1, 1] - top[1, 1])) > 1.0  # keystone
+
+
+def test_unrectified_defaults_smoke(shared_data):
+    """--defaults: the perturbed pairs matched by match_stereo(left, right) with no
+    parameter, the search column saying how (the smallest perturbation first)."""
+    env = {**os.environ, "HOPMATCH_SHARED_DATA": str(SHARED_DATA)}
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "unrectified.py"),
+                           "--smoke", "--sections", "perturbed", "--defaults"], cwd=ROOT,
+                          env=env, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "## Perturbed pairs: match_stereo(left, right)\n" in proc.stdout
+    assert re.search(r"^\| middlebury/tsukuba \| \+0\.5 deg, \+2 px, x1 \| \d+ \| \d+ \| "
+                     r"0\.\d+ \| \d+ \| [\d.]+ \| [\d.]+ \| .+ \| (rows|aligned|rectified|"
+                     r"epipolar) \| [\d.]+ \|$", proc.stdout, re.M)

@@ -4,6 +4,8 @@ that varies across the view), read off a first match, and the second match throu
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from synthetic_pairs import texture
@@ -87,6 +89,12 @@ def _map(field=(0.0,) * 6, bounds=(0.0, 0.0), shape=(1, 5)):
                         shape, bounds, 0.0, bounds[1] - bounds[0], 500)
 
 
+def test_needs_rematch_reads_either_tolerance():
+    m = tone.ToneMap(np.zeros(4), 0.0, 1.0, np.zeros(6), (2, 2), (0.0, 0.3), 0.05, 0.3, 500)
+    assert tone.needs_rematch(m, 0.04, None) and tone.needs_rematch(m, None, 0.25)
+    assert not tone.needs_rematch(m, 0.06, 0.35) and not tone.needs_rematch(m, None, None)
+
+
 def test_apply_continues_the_end_slopes():
     out = _map().apply(np.array([[0.0, 20.0, 70.0, 120.0, 220.0]]))
     np.testing.assert_allclose(out, [[-10.0, 10.0, 60.0, 110.0, 210.0]], atol=1e-4)
@@ -134,7 +142,7 @@ def test_match_stereo_matches_again_through_the_map():
     res = hopmatch.match_stereo(left, right, tone_tolerance=0.04, gain_field_tolerance=None,
                                 **params)
     found = res.tone_map
-    assert found is not None and found.nonlinearity > 0.04
+    assert found is not None and found.nonlinearity > 0.04 and found.used
     again = hopmatch.match_stereo(left, found.apply(right), tone_tolerance=None,
                                   gain_field_tolerance=None, **params)
     np.testing.assert_array_equal(res.matched_left, again.matched_left)
@@ -145,7 +153,33 @@ def test_match_stereo_matches_again_through_the_map():
     high = hopmatch.match_stereo(left, right, tone_tolerance=10.0, gain_field_tolerance=10.0,
                                  **params)
     assert high.tone_map.nonlinearity == pytest.approx(found.nonlinearity)
+    assert not high.tone_map.used
     np.testing.assert_array_equal(high.matched_left, off.matched_left)
+
+
+def test_a_second_match_with_fewer_pairs_is_not_kept():
+    """rematch_through_map keeps the first match when the second finds fewer pairs (a map
+    read off a poor first match), and says so (``used`` False)."""
+    left, right = _exposed_pair()
+    first = hopmatch.match_stereo(left, right, max_disparity=16, tone_tolerance=None,
+                                  gain_field_tolerance=None)
+    det = hopmatch.DericheMoravecDetector()
+    found_l = det.detect_and_describe(left, keep_gray=True)
+    found_r = det.detect_and_describe(right, keep_gray=True)
+    calls = []
+
+    def fewer(gray):
+        calls.append(gray)
+        smaller = dataclasses.replace(first, query_idx=first.query_idx[:10],
+                                      train_idx=first.train_idx[:10],
+                                      distances=first.distances[:10], passes=first.passes[:10])
+        return smaller, "unused"
+
+    kept, kept_right = tone.rematch_through_map(first, found_l, found_r, 0.04, None, fewer)
+    assert len(calls) == 1 and kept is first and kept_right is found_r
+    assert kept.tone_map.nonlinearity > 0.04 and not kept.tone_map.used
+    untouched, _ = tone.rematch_through_map(first, found_l, found_r, None, None, fewer)
+    assert untouched is first and len(calls) == 1
 
 
 def test_the_paper_never_remaps_and_the_tolerance_is_checked():

@@ -314,6 +314,24 @@ def test_the_aligned_pair_is_equalised_and_says_so(verged):
     assert off.sharpness.sigma_left == off.sharpness.sigma_right == 0.0
 
 
+def test_the_aligned_pair_reads_a_tone_map_and_matches_again_through_it(verged):
+    """The right view through a steep response curve: the map read off the aligned pair's
+    network matches calls for a second match (recorded); the plain pair's does not, and
+    its matches are those with both tolerances None."""
+    left, right, F, res = verged
+    assert res.tone_map is not None and res.tone_map.nonlinearity < 0.04
+    off = hopmatch.match_stereo(left, right, rectified=False, tone_tolerance=None,
+                                gain_field_tolerance=None)
+    assert off.tone_map is None
+    np.testing.assert_array_equal(off.matched_right, res.matched_right)
+    curved = np.clip(255.0 * (right / 255.0) ** 2.2, 0, 255).astype(np.uint8)
+    again = hopmatch.match_stereo(left, curved, rectified=False)
+    assert again.tone_map is not None and again.tone_map.nonlinearity > 0.04
+    assert again.tone_map.used  # the second match found more pairs
+    err = symmetric_epipolar_error(F, again.matched_left, again.matched_right)
+    assert len(again.query_idx) > 1000 and np.mean(err <= 1.0) > 0.97
+
+
 def test_the_refinement_window_follows_the_given_images_not_the_canvas(monkeypatch):
     # the aligned pair is refined in a canvas wider than the images by the range's shift;
     # the window is that of the left image's size (stereo_match.refine_radius)
