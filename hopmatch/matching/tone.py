@@ -42,7 +42,8 @@ TRIM = 3.0
 #: curve's unit interval; beyond it the curve is continued by its end slopes.
 SPAN_PERCENTILES = (1.0, 99.0)
 #: Matches whose grey levels (either end, or the curve's value) lie below this fraction of
-#: the span do not inform the gain (a ratio of two dark levels is mostly noise).
+#: the span above its low end, or below 0, do not inform the gain (a ratio of two dark
+#: levels is mostly noise).
 DARK = 0.05
 
 
@@ -167,7 +168,8 @@ def tone_map(gray_left: np.ndarray, gray_right: np.ndarray, points_left: np.ndar
     terms = field_terms(right_points[:, 0], right_points[:, 1], np.shape(gray_right)[:2])
     field = np.zeros(terms.shape[1])
     keep = np.ones(len(t), dtype=bool)
-    floor = np.percentile(left, SPAN_PERCENTILES[0]) + DARK * (np.ptp(left) or 1.0)
+    # a gain is a ratio of two positive levels (images of negative levels get no field)
+    floor = max(np.percentile(left, SPAN_PERCENTILES[0]) + DARK * (np.ptp(left) or 1.0), 0.0)
     for _ in range(ROUNDS):
         gain = np.exp(terms @ field)
         coefficients = np.polyfit(t[keep], (left / gain)[keep], DEGREE)

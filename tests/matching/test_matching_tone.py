@@ -192,3 +192,11 @@ def test_the_paper_never_remaps_and_the_tolerance_is_checked():
             hopmatch.match_stereo(left, right, **{name: -0.1})
         with pytest.raises(TypeError, match=name):
             hopmatch.match_stereo(left, right, **{name: "0.1"})
+
+
+def test_negative_levels_get_a_curve_and_no_field():
+    """Float views below 0 (a gain is a ratio of positive levels): no field, no NaN."""
+    left, right, pl, pr = _pair_points(seed=6)
+    found = tone.tone_map(-300.0 + left, -300.0 + 0.5 * right, pl, pr)
+    assert found is not None and found.field_range == 0.0
+    assert np.isfinite(found.coefficients).all() and found.nonlinearity < 0.01
