@@ -140,7 +140,12 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         and ``refine`` moves every match's right point to its sub-pixel position on the
         row the vertical model gives (``result.refinement``), then drops the matches whose
         grey window straddles a depth edge (:mod:`hopmatch.matching.halves`).
-        ``preset="paper"`` turns both off.
+        Two more look at both images (docs/method.md 4.6-4.7): before detection the
+        sharper view is blurred towards the other (``sharpness_ratio``;
+        ``result.sharpness``), and after a first match whose grey levels differ by a curve
+        or a varying gain (``tone_tolerance``, ``gain_field_tolerance``) the right view is
+        mapped through them and the pair matched again (``result.tone_map``).
+        ``preset="paper"`` turns all four off.
 
     Examples
     --------
