@@ -224,13 +224,18 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
 
         def rematch(gray_right):  # the right view mapped through the pair's tone map
             found, t = detect(gray_right, mask_right, "right")
-            return match_detected(found_l, found, config, keypoint_size=keypoint_size,
-                                  fundamental=fundamental, record_energy=record_energy,
-                                  timings={"detect_left": t_l, "detect_right": t_r + t},
-                                  threads=threads), found
+            again = match_detected(found_l, found, config, keypoint_size=keypoint_size,
+                                   fundamental=fundamental, record_energy=record_energy,
+                                   timings={"detect_left": t_l, "detect_right": t_r + t},
+                                   threads=threads)
+            return len(again.query_idx), (again, found)
 
-        result, found_r = rematch_through_map(result, found_l, found_r, config.tone_tolerance,
-                                              config.gain_field_tolerance, rematch)
+        tone, second = rematch_through_map(found_l[4], found_r[4], result.matched_left,
+                                           result.matched_right, config.tone_tolerance,
+                                           config.gain_field_tolerance, rematch)
+        if second is not None:
+            result, found_r = second
+        result.tone_map = tone
     # after match_detected, whose checks of the pair (two heights...) come first
     (pts_l, *_, gray_l), (pts_r, *_, gray_r) = found_l, found_r
     window = detector.getDescriptorSize()

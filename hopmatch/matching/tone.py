@@ -109,9 +109,9 @@ class ToneMap:
     def apply(self, gray: np.ndarray) -> np.ndarray:
         """``gray`` (the right view) mapped through the curve and the gain, float32."""
         h, w = self.shape
-        gain = np.exp(self.log_gain(np.arange(w, dtype=np.float64)[None, :].repeat(h, 0),
-                                    np.arange(h, dtype=np.float64)[:, None].repeat(w, 1)))
-        return (self.curve(gray) * gain).astype(np.float32)
+        x, y = np.broadcast_arrays(np.arange(w, dtype=np.float64)[None, :],
+                                   np.arange(h, dtype=np.float64)[:, None])
+        return (self.curve(gray) * np.exp(self.log_gain(x, y))).astype(np.float32)
 
 
 def field_terms(x: np.ndarray, y: np.ndarray, shape) -> np.ndarray:
@@ -205,25 +205,28 @@ def needs_rematch(found: ToneMap, tone_tolerance: float | None,
             or (field_tolerance is not None and found.field_range > field_tolerance))
 
 
-def rematch_through_map(result, found_left, found_right, tone_tolerance: float | None,
-                        field_tolerance: float | None, rematch):
-    """``(result, found_right)``: ``result`` (a first match, whose detection of each view
-    gave ``found_left`` and ``found_right``: ``(points, responses, descriptors, G,
-    grey)``) with its :func:`tone_map` recorded as ``result.tone_map``; or, when the map's
-    ``nonlinearity`` exceeds ``tone_tolerance`` or its ``field_range`` exceeds
-    ``field_tolerance`` (None: never), what ``rematch(grey)`` returns for the right grey
-    view mapped through it (``(result, found_right)`` of a second detection of the right
-    view and a second match) when that match has more pairs than the first, with the map
-    recorded (``used`` True). A map read off a first match with many wrong pairs can be
-    wrong itself; the count keeps such a second match from replacing a better first."""
+def rematch_through_map(gray_left: np.ndarray, gray_right: np.ndarray,
+                        matched_left: np.ndarray, matched_right: np.ndarray,
+                        tone_tolerance: float | None, field_tolerance: float | None,
+                        rematch) -> tuple[ToneMap | None, object]:
+    """``(map, second)``: the :func:`tone_map` of a first match (the grey views it was made
+    on, its ``matched_left[i]`` with ``matched_right[i]``; None when both tolerances are
+    None), and what ``rematch(grey)`` returned for the right grey view mapped through it,
+    or None.
+
+    ``rematch(grey)`` is called when the map's ``nonlinearity`` exceeds ``tone_tolerance``
+    or its ``field_range`` exceeds ``field_tolerance`` (:func:`needs_rematch`) and returns
+    ``(pairs, second)``: how many pairs the second match found, and whatever the caller
+    keeps of it. ``second`` is returned (and the map's ``used`` set) only when that match
+    has more pairs than the first (``len(matched_left)``): a map read off a first match
+    with many wrong pairs can be wrong itself, and the count keeps such a second match
+    from replacing a better first."""
     if tone_tolerance is None and field_tolerance is None:
-        return result, found_right
-    found = tone_map(found_left[4], found_right[4], result.matched_left,
-                     result.matched_right)
-    if found is not None and needs_rematch(found, tone_tolerance, field_tolerance):
-        second, second_right = rematch(found.apply(found_right[4]))
-        if len(second.query_idx) > len(result.query_idx):
-            result, found_right = second, second_right
-            found = replace(found, used=True)
-    result.tone_map = found
-    return result, found_right
+        return None, None
+    found = tone_map(gray_left, gray_right, matched_left, matched_right)
+    if found is None or not needs_rematch(found, tone_tolerance, field_tolerance):
+        return found, None
+    pairs, second = rematch(found.apply(gray_right))
+    if pairs <= len(matched_left):
+        return found, None
+    return replace(found, used=True), second

@@ -39,7 +39,7 @@ import time
 import cv2
 import numpy as np
 
-from .._validate import as_gray_image, as_mask, check_coordinate_range
+from .._validate import as_mask, check_coordinate_range
 from ..feature.descriptor import gradient_windows
 from ..feature.sharpness import SharpnessMatch, equalise_sharpness
 from .disparity_range import coarse_extent
@@ -52,7 +52,7 @@ from .geometry import (
     transform_points,
 )
 from .network import NetworkResult, PairInfo, match_pair, run_hopfield_network
-from .tone import ToneMap, needs_rematch, tone_map
+from .tone import ToneMap, rematch_through_map
 
 #: A range in the search frame: an extent widened on each side by this fraction of its
 #: span, plus 1 % of the width and 2 px ...
@@ -312,9 +312,8 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     as :func:`~hopmatch.matching.network.match_pair`'s, for the network of the last pass.
     """
     t0 = time.perf_counter()
-    limit = detector.getMaxPixels()
-    left_gray = as_gray_image(left, "left", max_pixels=limit)
-    right_gray = as_gray_image(right, "right", max_pixels=limit)
+    left_gray = detector.gray_image(left, "left")
+    right_gray = detector.gray_image(right, "right")
     m_l = as_mask(mask_left, left_gray.shape, "mask_left")
     m_r = as_mask(mask_right, right_gray.shape, "mask_right")
     size = left_gray.shape[::-1]
@@ -352,22 +351,21 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
             if refit is geometry:
                 break
             geometry = refit
-    tone = tone_map(gray_l, gray_r, pts_l[net.query_idx], pts_a[net.train_idx]) if (
-        config.tone_tolerance is not None or config.gain_field_tolerance is not None) else None
-    if tone is not None and needs_rematch(tone, config.tone_tolerance,
-                                          config.gain_field_tolerance):
-        # the aligned right view mapped through the pair's tone map, detected and searched
-        # again along the same geometry (docs/method.md 4.7)
-        found = detector.detect_and_describe(tone.apply(gray_r), valid, name="right",
-                                             keep_gray=True)
+
+    def rematch(gray_right):  # the aligned right view mapped through the pair's tone map,
+        # detected and searched again along the same geometry (docs/method.md 4.7)
+        found = detector.detect_and_describe(gray_right, valid, name="right", keep_gray=True)
         again = None if few_matches_later is None else []
-        second = search(geometry, to_aligned, pts_l, found[0], desc_l, found[2], size, config,
-                        record_energy, few_matches_later=again)
-        if len(second[0].query_idx) > len(net.query_idx):  # as rematch_through_map keeps it
-            (pts_a, resp_r, desc_r, g_r, gray_r), pending = found, again
-            net, mode, shift, maps = second
-            pts_r = transform_points(pts_a, np.linalg.inv(to_aligned))
-            tone = dataclasses.replace(tone, used=True)
+        searched = search(geometry, to_aligned, pts_l, found[0], desc_l, found[2], size,
+                          config, record_energy, few_matches_later=again)
+        return len(searched[0].query_idx), (found, again, searched)
+
+    tone, second = rematch_through_map(gray_l, gray_r, pts_l[net.query_idx],
+                                       pts_a[net.train_idx], config.tone_tolerance,
+                                       config.gain_field_tolerance, rematch)
+    if second is not None:
+        (pts_a, resp_r, desc_r, g_r, gray_r), pending, (net, mode, shift, maps) = second
+        pts_r = transform_points(pts_a, np.linalg.inv(to_aligned))
     if pending:
         few_matches_later.extend(pending)
     timings.update(align=t2 - t1, detect_left=t3 - t2, detect_right=t4 - t3,

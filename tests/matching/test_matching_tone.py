@@ -4,8 +4,6 @@ that varies across the view), read off a first match, and the second match throu
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 from synthetic_pairs import texture
@@ -158,28 +156,36 @@ def test_match_stereo_matches_again_through_the_map():
 
 
 def test_a_second_match_with_fewer_pairs_is_not_kept():
-    """rematch_through_map keeps the first match when the second finds fewer pairs (a map
-    read off a poor first match), and says so (``used`` False)."""
+    """rematch_through_map keeps the first match when the second finds no more pairs (a
+    map read off a poor first match), and says so (``used`` False); with more pairs it
+    returns the second and ``used`` True; with both tolerances None it reads nothing."""
     left, right = _exposed_pair()
     first = hopmatch.match_stereo(left, right, max_disparity=16, tone_tolerance=None,
                                   gain_field_tolerance=None)
     det = hopmatch.DericheMoravecDetector()
-    found_l = det.detect_and_describe(left, keep_gray=True)
-    found_r = det.detect_and_describe(right, keep_gray=True)
+    gray_l = det.detect_and_describe(left, keep_gray=True)[4]
+    gray_r = det.detect_and_describe(right, keep_gray=True)[4]
+    n_first = len(first.query_idx)
     calls = []
 
-    def fewer(gray):
-        calls.append(gray)
-        smaller = dataclasses.replace(first, query_idx=first.query_idx[:10],
-                                      train_idx=first.train_idx[:10],
-                                      distances=first.distances[:10], passes=first.passes[:10])
-        return smaller, "unused"
+    def second_with(pairs):
+        def rematch(gray):
+            calls.append(gray)
+            return pairs, "second"
+        return rematch
 
-    kept, kept_right = tone.rematch_through_map(first, found_l, found_r, 0.04, None, fewer)
-    assert len(calls) == 1 and kept is first and kept_right is found_r
-    assert kept.tone_map.nonlinearity > 0.04 and not kept.tone_map.used
-    untouched, _ = tone.rematch_through_map(first, found_l, found_r, None, None, fewer)
-    assert untouched is first and len(calls) == 1
+    args = (gray_l, gray_r, first.matched_left, first.matched_right)
+    found, second = tone.rematch_through_map(*args, 0.04, None, second_with(10))
+    assert len(calls) == 1 and second is None
+    assert found.nonlinearity > 0.04 and not found.used
+    np.testing.assert_array_equal(calls[0], found.apply(gray_r))
+    found, second = tone.rematch_through_map(*args, 0.04, None, second_with(n_first))
+    assert len(calls) == 2 and second is None and not found.used
+    found, second = tone.rematch_through_map(*args, 0.04, None, second_with(n_first + 1))
+    assert len(calls) == 3 and second == "second" and found.used
+    assert tone.rematch_through_map(*args, None, None, second_with(n_first + 1)) == (None,
+                                                                                     None)
+    assert len(calls) == 3
 
 
 def test_the_paper_never_remaps_and_the_tolerance_is_checked():
