@@ -192,7 +192,8 @@ def row_buckets(row_start, rx, max_entries):
 
 @jit
 def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dmax, vmax,
-                    max_neurons, scale_l, scale_r_sorted, gate, eps, gain_tol):
+                    max_neurons, scale_l, scale_r_sorted, gate, eps, gain_tol,
+                    count_only=False):
     """The pairs (i, k) with ``dmin <= xl - xr <= dmax`` and ``yl - vmax <= yr <= yl + vmax``
     (float32 arithmetic, as the points are stored), as ``(ni, nk, n)``: grouped by left point
     in the order ``visit`` lists them, each group in row order (:func:`group_by_left` and
@@ -222,10 +223,13 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
     past ``max_neurons`` (a refusal costs about ``max_neurons`` steps, not the band's
     size): ``n > max_neurons`` then says so (``n`` a lower bound of the band's pairs), and
     ``ni``/``nk`` are empty.
+
+    ``count_only``: write no pair, only count (``ni``/``nk`` empty, ``n`` as above): the
+    count of a refusal without the writes that lead up to it.
     """
     table, x0, inv, nb = row_buckets(row_start, rx,
                                      BUCKETS_PER_POINT * rx.shape[0] + BUCKET_SLACK)
-    cap = min(max_neurons, 8 * left.shape[0] + 1024)
+    cap = 0 if count_only else min(max_neurons, 8 * left.shape[0] + 1024)
     ni = np.empty(cap, dtype=np.int32)
     nk = np.empty(cap, dtype=np.int32)
     # int64, not the literal 0: Numba would compile _band_scan for both types
@@ -235,12 +239,13 @@ def band_candidates(left, visit, row_values, row_start, order, rx, ry, dmin, dma
     while q < visit.shape[0]:
         q, p, n = _band_scan(left, visit, q, row_values, table, x0, inv, nb, order, rx, ry,
                              dmin, dmax, vmax, scale_l, scale_r_sorted, gate, eps, gain_tol,
-                             ni, nk, p, n, cap < max_neurons, max_neurons)
+                             ni, nk, p, n, cap < max_neurons and not count_only,
+                             max_neurons)
         if q < visit.shape[0]:  # left point q did not fit: grow, then resume at it
             cap = min(2 * cap, max_neurons)
             ni = grown(ni, p, cap)
             nk = grown(nk, p, cap)
-    if n > max_neurons:
+    if n > max_neurons or count_only:
         return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), n
     return ni[:p].copy(), nk[:p].copy(), n
 

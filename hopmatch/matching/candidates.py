@@ -76,9 +76,10 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
         # each left point's pairs from its own search, in visit order: the ranges' outputs
         # concatenated are the one call's; their counts add up (each exact while within
         # the budget, so the sum passes it exactly when the band's count does)
-        def search(lo, hi):
+        def search(lo, hi, count_only=False):
             return _kc.band_candidates(left, visit[lo:hi], *index, *band, budget, scale_l,
-                                       scale_r, float(gate), EPS, float(gain_tolerance))
+                                       scale_r, float(gate), EPS, float(gain_tolerance),
+                                       count_only)
 
         parts = map_ranges(search, len(visit))
         ni, nk, n = parts[0] if len(parts) == 1 else (
@@ -87,8 +88,8 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
         if n > max_neurons and len(parts) > 1:
             # the count past the budget is a lower bound that depends on the ranges: the
             # one call's, for an error message that does not depend on the thread count
-            # (a refusal costs about max_neurons steps)
-            n = search(0, len(visit))[2]
+            # (a refusal costs about max_neurons steps; this one counts, writing nothing)
+            n = search(0, len(visit), True)[2]
     else:
         order = np.argsort(right[:, 0], kind="stable")
         ni, nk, n = _kc.epipolar_candidates(

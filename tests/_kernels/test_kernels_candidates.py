@@ -235,6 +235,26 @@ class TestCountStopsAtTheBudget:
                 candidate_pairs(left, right, -1000.0, 1000.0, 1000.0, 5_000_000, fundamental)
             assert time.process_time() - t0 < 1.0
 
+    @pytest.mark.parametrize("budget", [10**7, 3000, 100])
+    def test_count_only_counts_what_the_search_counts(self, budget):
+        """``count_only`` (the recount behind a refusal's message) writes nothing and
+        returns the ``n`` of the search that writes: every pair of the band within the
+        budget, and past it the same lower bound (the count stops at the same segment)."""
+        rng = np.random.default_rng(3)
+        left = np.column_stack([rng.uniform(0, 400, 300), rng.uniform(0, 40, 300)])
+        right = np.column_stack([rng.uniform(0, 400, 400), rng.uniform(0, 40, 400)])
+        left, right = left.astype(np.float32), right.astype(np.float32)
+        index = _k.band_index(right, 4 * len(right) + 1024)
+        visit = _k.row_order(left, 4 * len(left) + 1024)[0]
+        band = (np.float32(0.0), np.float32(150.0), np.float32(2.0))
+        args = (left, visit, *index, *band, np.int64(budget), np.zeros(len(left)),
+                np.zeros(len(right)), np.inf, 1e-6, 1.0)
+        ni, nk, n = _k.band_candidates(*args)
+        ci, ck, cn = _k.band_candidates(*args, True)
+        assert cn == n and len(ci) == 0 and len(ck) == 0
+        every = len(naive.candidate_pairs(left, right, 0.0, 150.0, 2.0))
+        assert (n == every == len(ni)) if budget > every else (budget < n <= every)
+
     def test_huge_bounds_keep_every_pair(self):
         """max_vertical of 1e19 (beyond int64 once turned into rows) or 3.5e38 (inf in
         float32) gave no candidate; bounds past 2**22 are clamped: the same pairs as a
