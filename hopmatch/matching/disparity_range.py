@@ -241,37 +241,108 @@ def run_in_range(run_network, found: DisparityRange, config, q_pts, t_pts, qd, t
     a budget (:class:`~hopmatch.errors.BudgetExceededError`), the full pass runs again on
     ranges between it and the coarse matches' own extent (:data:`BUDGET_WIDENING`; the
     last is that extent with :data:`RANGE_PIXELS` of margin; the others only where
-    :func:`estimated_pairs` predicts that they fit) until one fits, with a
-    :class:`~hopmatch.errors.DisparityRangeWarning` that names it; if none fits, the
-    first error is raised."""
+    :func:`estimated_pairs` predicts that they fit) until one fits; when none does (or the
+    range is the coarse pass's fallback), on the range of ``found`` with as many left
+    points as fit (:func:`run_thinned`). Each with a
+    :class:`~hopmatch.errors.DisparityRangeWarning` that says what was searched; if nothing
+    fits (or the range was given), the first error is raised."""
     try:
         return run_network(q_pts, t_pts, qd, td, config, **kwargs), config
     except BudgetExceededError as exc:
-        if found.source != "coarse":
+        if found.source not in ("coarse", "fallback"):
             raise
         first = exc
-    lo, hi = found.found
-    for share in BUDGET_WIDENING:
-        low = max(lo - RANGE_PIXELS + share * (found.min_disparity - lo + RANGE_PIXELS),
-                  found.min_disparity)
-        high = max(hi + RANGE_PIXELS + share * (found.max_disparity - hi - RANGE_PIXELS), low)
-        if share > 0 and estimated_pairs(q_pts, t_pts, low, high, config,
-                                         kwargs.get("fundamental")) \
-                > BUDGET_ESTIMATE_SLACK * config.max_neurons:
-            continue
-        narrow = dataclasses.replace(config, min_disparity=low, max_disparity=high)
+    what = (f"the range found, [{found.min_disparity:g}, {found.max_disparity:g}],"
+            if found.source == "coarse" else
+            f"the whole search range, [{found.min_disparity:g}, {found.max_disparity:g}] "
+            f"(the coarse pass kept fewer than {MIN_MATCHES} matches),")
+    if found.source == "coarse":
+        lo, hi = found.found
+        for share in BUDGET_WIDENING:
+            low = max(lo - RANGE_PIXELS + share * (found.min_disparity - lo + RANGE_PIXELS),
+                      found.min_disparity)
+            high = max(hi + RANGE_PIXELS + share * (found.max_disparity - hi - RANGE_PIXELS),
+                       low)
+            if share > 0 and estimated_pairs(q_pts, t_pts, low, high, config,
+                                             kwargs.get("fundamental")) \
+                    > BUDGET_ESTIMATE_SLACK * config.max_neurons:
+                continue
+            narrow = dataclasses.replace(config, min_disparity=low, max_disparity=high)
+            try:
+                result = run_network(q_pts, t_pts, qd, td, narrow, **kwargs)
+            except BudgetExceededError:
+                continue
+            instead = ("the coarse matches' own range" if share == 0 else
+                       f"{share:.0%} of its widening around the coarse matches' range")
+            warn(f"max_disparity=None: {what} exceeds a budget ({first}); searching "
+                 f"{instead}, [{narrow.min_disparity:g}, {narrow.max_disparity:g}], instead",
+                 DisparityRangeWarning)
+            return result, narrow
+    thinned = run_thinned(run_network, config, q_pts, t_pts, qd, td, **kwargs)
+    if thinned is None:
+        raise first from None
+    warn(f"max_disparity=None: {what} exceeds a budget ({first})"
+         + (", and so does the coarse matches' own range" if found.source == "coarse" else "")
+         + f"; the network ran there on {len(thinned.thinned)} of the {len(q_pts)} left "
+         "points, the strongest of each cell of a grid, its neighbourhood scaled as the "
+         "coarse pass's (match_stereo's guided pass searches the others; pass fewer "
+         "keypoints, a range, or a larger max_neurons to run it on every point)",
+         DisparityRangeWarning)
+    return thinned, config
+
+
+#: Left points whose candidate pairs estimate how many points fit in a budget
+#: (:func:`run_thinned`).
+THIN_SAMPLE = 2000
+#: Tries of :func:`run_thinned`, each with half the points of the one before (each
+#: costs at most a budget's worth of candidate search: a refusal stays quick).
+THIN_TRIES = 2
+#: Fewest left points :func:`run_thinned` runs the network on (fewer: it refuses).
+THIN_MIN_POINTS = 200
+
+
+def run_thinned(run_network, config, q_pts, t_pts, qd, td, *, mask=None, **kwargs):
+    """``run_network`` on as many left points as fit ``config``'s budgets (one per cell of
+    a grid over them: :func:`thin_points`, the strongest of each cell when the points come
+    strongest first, as the detector gives them), its neighbourhood scaled as the coarse
+    pass's (:func:`coarse_config`), every right point kept: the result in the indices of
+    all the points, with ``thinned`` the left points it ran on and ``config`` ``config``.
+    How many fit is estimated from the candidate pairs of :data:`THIN_SAMPLE` of them
+    (:data:`BUDGET_ESTIMATE_SLACK` of ``max_neurons``), halved up to :data:`THIN_TRIES`
+    times while a budget is exceeded. None when none fits, when fewer than
+    :data:`THIN_MIN_POINTS` would be kept, or when every point would be (then thinning
+    does not help)."""
+    sample = thin_points(q_pts, THIN_SAMPLE)
+    try:
+        ni, _ = candidate_pairs(np.ascontiguousarray(q_pts[sample]), t_pts,
+                                config.min_disparity, config.max_disparity,
+                                config.max_vertical, config.max_neurons,
+                                kwargs.get("fundamental"), sort=False)
+    except BudgetExceededError:
+        return None
+    per_point = max(len(ni), 1) / max(len(sample), 1)
+    target = int(BUDGET_ESTIMATE_SLACK * config.max_neurons / per_point)
+    for _ in range(THIN_TRIES):
+        if target < THIN_MIN_POINTS:
+            return None
+        keep = thin_points(q_pts, target)
+        if len(keep) >= len(q_pts) or len(keep) < THIN_MIN_POINTS:
+            return None
+        cfg = coarse_config(config, len(q_pts), len(keep), config.min_disparity,
+                            config.max_disparity)
         try:
-            result = run_network(q_pts, t_pts, qd, td, narrow, **kwargs)
+            result = run_network(
+                np.ascontiguousarray(q_pts[keep]), t_pts, np.ascontiguousarray(qd[keep]), td,
+                cfg, mask=None if mask is None else np.ascontiguousarray(mask[keep]),
+                **kwargs)
         except BudgetExceededError:
+            target = len(keep) // 2
             continue
-        what = ("the coarse matches' own range" if share == 0 else
-                f"{share:.0%} of its widening around the coarse matches' range")
-        warn(f"max_disparity=None: the range found, [{found.min_disparity:g}, "
-             f"{found.max_disparity:g}], exceeds a budget ({first}); searching {what}, "
-             f"[{narrow.min_disparity:g}, {narrow.max_disparity:g}], instead",
-             DisparityRangeWarning)
-        return result, narrow
-    raise first from None
+        keep = keep.astype(np.int32)
+        return dataclasses.replace(result, query_idx=keep[result.query_idx],
+                                   neuron_left=keep[result.neuron_left], config=config,
+                                   thinned=keep)
+    return None
 
 
 def warn_fallback(found: DisparityRange, n_matches: int) -> None:

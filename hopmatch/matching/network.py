@@ -92,6 +92,12 @@ class NetworkResult:
         followed (:func:`~hopmatch.matching.vertical.row_offset_prior`); None when the band
         was the plain rows (a well rectified pair, a fundamental matrix, or
         ``vertical_model="median"``).
+    thinned : (K,) int32 ndarray or None
+        When the pair's candidate pairs exceeded a budget with the range found by itself,
+        the left points (increasing indices) the network ran on, one per cell of a grid,
+        its neighbour window and θ scaled by ``sqrt(Nl / K)`` as the coarse pass's
+        (:func:`~hopmatch.matching.disparity_range.run_thinned`; ``config`` is then the
+        unscaled parameters); None: every left point.
     """
 
     query_idx: np.ndarray
@@ -110,6 +116,7 @@ class NetworkResult:
     energy_trace: np.ndarray = field(default_factory=lambda: np.zeros(0))
     config: MatcherConfig | None = None
     row_prior: RowOffsetPrior | None = None
+    thinned: np.ndarray | None = None
 
 
 class PairInfo(NamedTuple):

@@ -513,3 +513,32 @@ def test_end_to_end_jpeg_smoke():
         r"75\), single thread",
         table_row("drop-in: detectAndCompute x2 \\+ setPairInfo \\+ match", NUM, NUM, NUM, NUM),
     )
+
+
+def test_textured_pair_smoke():
+    """docs/parameters.md ("Disparity range") quotes its lines: keypoints and thinning,
+    matches and precision, time and memory against SIFT; the smoke pair's plane is known,
+    so its matches are scored and right."""
+    out = run_script("textured_pair.py")
+    lines = out.splitlines()
+    assert lines[0].startswith("## A textured 600 x 400 pair (noise blurred by 1 px")
+    assert re.fullmatch(r"keypoints \d+ / \d+; the network ran on (every left point|\d+ of "
+                        r"\d+ left points \(thinned\)); range \[[\d.-]+, [\d.-]+\] px",
+                        lines[2]), lines[2]
+    got = re.fullmatch(r"matches (\d+); correct at 1 px (\d+) \(precision ([\d.]+)\)", lines[3])
+    assert got and int(got[1]) > 1000 and float(got[3]) > 0.99, lines[3]
+    assert re.fullmatch(r"time [\d.]+ s; peak memory \d+ MB; SIFT detectAndCompute on both "
+                        r"images [\d.]+ s \(ratio [\d.]+\)", lines[4]), lines[4]
+    assert lines[5].startswith("stages: detect_left ")
+
+
+def test_thinned_network_smoke():
+    """docs/parameters.md ("Disparity range") quotes its header and pooled line."""
+    out = run_script("thinned_network.py")
+    lines = out.splitlines()
+    assert lines[0] == ("scene | defaults correct / precision | max_neurons = pairs / 4: left "
+                        "points of the network | correct / precision")
+    assert re.fullmatch(r"motorcycle \| \d+ / [\d.]+ \| (refused \(max_neurons=\d+\) \| -|"
+                        r"\d+ of \d+ \| \d+ / [\d.]+)", lines[1]), lines[1]
+    assert re.fullmatch(r"pooled over the \d+ scenes run both ways: defaults \d+ correct, "
+                        r"thinned \d+ \([\d.]+x\)", lines[2]), lines[2]

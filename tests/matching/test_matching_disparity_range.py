@@ -150,6 +150,66 @@ def test_a_found_range_over_budget_keeps_as_much_of_its_widening_as_fits(shifted
     assert len(res.query_idx) > 50
 
 
+def _thinning_budget(pl, pr, free):
+    """A budget between the candidates of run_thinned's sample (and the coarse pass's)
+    and those of every left point in the range found: the network can only run thinned."""
+    bounds = (free.config.min_disparity, free.config.max_disparity)
+    every = len(candidate_pairs(pl, pr, *bounds, free.config.max_vertical, 10**9)[0])
+    sample = len(candidate_pairs(pl[dr.thin_points(pl, dr.THIN_SAMPLE)], pr, *bounds,
+                                 free.config.max_vertical, 10**9)[0])
+    coarse = len(candidate_pairs(pl[dr.thin_points(pl, dr.COARSE_POINTS)], pr, 0.0, 160.0,
+                                 free.config.max_vertical, 10**9)[0])
+    budget = (max(sample, coarse) + every) // 2
+    assert max(sample, coarse) < budget < every and len(pl) > 3 * dr.THIN_MIN_POINTS
+    return budget
+
+
+def test_a_found_range_over_every_budget_step_runs_on_thinned_left_points(shifted_pair,
+                                                                         monkeypatch):
+    """When neither the range found nor any share of its widening fits the budget, the
+    network runs on that range with the strongest left point of each cell of a grid (as
+    many as fit), its neighbourhood scaled as the coarse pass's, and says so; the result
+    is in the indices of every point (``thinned`` the points it ran on), its matches are
+    right, and the same in a second call."""
+    pl, pr, dl, drr, free = shifted_pair
+    monkeypatch.setattr(dr, "BUDGET_WIDENING", ())
+    budget = _thinning_budget(pl, pr, free)
+    with pytest.warns(DisparityRangeWarning, match=r"exceeds a budget.*the network ran there "
+                                                   rf"on \d+ of the {len(pl)} left points"):
+        res = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480),
+                                      max_neurons=budget)
+    kept = res.thinned
+    assert kept is not None and 0 < len(kept) < len(pl) and (np.diff(kept) > 0).all()
+    assert np.isin(res.neuron_left, kept).all() and np.isin(res.query_idx, kept).all()
+    assert len(res.neuron_left) <= budget
+    # the unscaled parameters and the range found, as without the budget
+    assert res.config == dataclasses.replace(free.config, max_neurons=budget)
+    d = pl[res.query_idx, 0] - pr[res.train_idx, 0]
+    assert len(d) > 0.5 * len(kept) and np.mean(np.abs(d - 10.0) <= 1.0) > 0.97
+    with pytest.warns(DisparityRangeWarning):
+        again = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480),
+                                        max_neurons=budget)
+    np.testing.assert_array_equal(again.query_idx, res.query_idx)
+    np.testing.assert_array_equal(again.train_idx, res.train_idx)
+    assert free.thinned is None
+
+
+def test_thinning_refuses_budgets_below_its_sample_and_leaves_given_ranges_alone(
+        shifted_pair, monkeypatch):
+    """No thinning below the candidates of its sample (the first error is raised), nor
+    for a range the caller gave (a budget error as before)."""
+    pl, pr, dl, drr, free = shifted_pair
+    monkeypatch.setattr(dr, "BUDGET_WIDENING", ())
+    budget = _thinning_budget(pl, pr, free)
+    with pytest.raises(BudgetExceededError, match=f"max_neurons={budget}"):
+        hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480),
+                                max_disparity=free.config.max_disparity,
+                                min_disparity=free.config.min_disparity, max_neurons=budget)
+    monkeypatch.setattr(dr, "THIN_SAMPLE", len(pl))  # the sample: every point, over budget
+    with pytest.raises(BudgetExceededError, match=f"max_neurons={budget}"):
+        hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480), max_neurons=budget)
+
+
 def test_the_range_covers_the_true_range_on_every_shared_scene(shared_data):
     """The 0.5th..99.5th percentiles of the ground truth lie in the range found, and at
     least 99 % of its pixels (a few pixels reach further on aloe and KITTI, where no
