@@ -27,7 +27,9 @@ confidence that ranks keeps (near) non-increasing in k.
 the half-window test).
 
 ``--perturb`` applies a change to the right image before matching and maps the right
-points back through it before scoring: ``dy0.5`` (shifted down by 0.5 px), ``gain0.7``
+points back through it before scoring: ``dy0.5`` (shifted down by 0.5 px), ``dx20``
+(shifted right by 20 px: every disparity 20 px smaller, the farther ones negative, as a
+rectification that leaves the principal points apart gives them), ``gain0.7``
 (intensities times 0.7), ``vig0.4`` (vignetting: times ``1 - 0.4 r^2``, r = 1 at the
 corners), ``gamma1.5`` (``255 (I / 255) ** 1.5``), ``noise3`` (Gaussian noise of sigma 3
 grey levels, seed 0), ``blur1`` (a Gaussian blur of sigma 1 px), ``jpeg75`` (saved as a JPEG
@@ -105,6 +107,8 @@ def perturbation(spec: str, shape) -> np.ndarray:
     for part in spec.split("+"):
         if part.startswith("dy"):
             m = np.array([[1, 0, 0], [0, 1, float(part[2:])], [0, 0, 1]]) @ m
+        elif part.startswith("dx"):
+            m = np.array([[1, 0, float(part[2:])], [0, 1, 0], [0, 0, 1]]) @ m
         elif part.startswith("rot") or part.startswith("scale"):
             angle = float(part[3:]) if part.startswith("rot") else 0.0
             scale = float(part[5:]) if part.startswith("scale") else 1.0

@@ -34,8 +34,12 @@ CONFIGS = {
 
 
 def params(**overrides):
+    """The defaults with ``overrides``, the range resolved as the network takes it (a given
+    max_disparity with min_disparity None means 0, as ``match_pair`` resolves it)."""
     p = dict(DEFAULTS)
     p.update(overrides)
+    if p["max_disparity"] is not None and p["min_disparity"] is None:
+        p["min_disparity"] = 0.0
     return p
 
 

@@ -345,6 +345,17 @@ def run_thinned(run_network, config, q_pts, t_pts, qd, td, *, mask=None, **kwarg
     return None
 
 
+def warn_if_negative(found: DisparityRange) -> None:
+    """Warn (:class:`~hopmatch.errors.DisparityRangeWarning`) when every disparity the
+    coarse pass found is negative: two views in the wrong order look like that (a right
+    image offset sideways, or a verged rig, gives a range that is partly negative)."""
+    if found.source == "coarse" and found.found is not None and found.found[1] < 0:
+        warn(f"max_disparity=None: every disparity the coarse pass found is negative "
+             f"({found.found[0]:g} to {found.found[1]:g} px): is the right image given "
+             "first? The pair was matched as found; pass the left image first (or "
+             "min_disparity=0 to search positive disparities only)", DisparityRangeWarning)
+
+
 def warn_fallback(found: DisparityRange, n_matches: int) -> None:
     """Warn (:class:`~hopmatch.errors.DisparityRangeWarning`) when the range could not be
     found and the full pass, searching the whole fallback range, found nothing either."""

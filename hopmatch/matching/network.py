@@ -41,7 +41,13 @@ from .candidates import (  # noqa: E402, F401
 )
 from .diagnostics import warn_geometry, warn_if_few_matches, warn_if_unrectified
 from .disambiguate import disambiguate, vertically_consistent
-from .disparity_range import resolve_disparity_range, run_in_range, search_range, warn_fallback
+from .disparity_range import (
+    resolve_disparity_range,
+    run_in_range,
+    search_range,
+    warn_fallback,
+    warn_if_negative,
+)
 from .neighbourhood import half_sides
 from .params import MatcherConfig, check_disparity_order, matcher_config
 from .similarity import (
@@ -285,6 +291,7 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     found = resolve_disparity_range(config, q_pts, t_search, qd, td, pair.query_size,
                                     run_hopfield_network, mask=mask, fundamental=fundamental)
     check_disparity_order(found.min_disparity, found.max_disparity)
+    warn_if_negative(found)
     config = dataclasses.replace(config, min_disparity=found.min_disparity,
                                  max_disparity=found.max_disparity)
     warn_geometry(pair.query_size, pair.train_size, fundamental, config)

@@ -16,9 +16,11 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "Mahiddine (2002), 'default' the tuned defaults (docs/parameters.md); explicit "
         "parameters win")),
     # search window of the candidates (epipolar band + disparity range)
-    Param("min_disparity", 0.0, real(optional=True), doc=(
-        "Smallest disparity x_left - x_right searched, in pixels (may be negative; None: "
-        "no floor for the range found when max_disparity is None)")),
+    Param("min_disparity", None, real(optional=True), doc=(
+        "Smallest disparity x_left - x_right searched, in pixels (may be negative); with "
+        "max_disparity None a floor of the range found (None, the default: no floor, so "
+        "a pair whose right image is offset sideways keeps its negative disparities), "
+        "with max_disparity given None means 0")),
     Param("max_disparity", None, real(optional=True), doc=(
         "Largest disparity searched, in pixels; None: found by a coarse pass of the "
         "network (min_disparity its floor)")),

@@ -191,7 +191,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                                       mask_left, mask_right, record_energy)
     may_switch = (rectified is None and fundamental is None and config.max_disparity is None
                   and "min_disparity" not in match_params and config.preset != "paper"
-                  and (matcher is None or config.min_disparity == 0.0))
+                  and (matcher is None or config.min_disparity in (None, 0.0)))
 
     given = left, right  # an unrectified pair is equalised after its warp (method.md 4.6)
     left, right, sharpness = equalise_sharpness(detector.gray_image(left, "left"),

@@ -57,7 +57,8 @@ def test_resolved_parameters_are_recorded():
     # RANGE_MARGIN of the width + RANGE_PIXELS (hopmatch.matching.disparity_range)
     from hopmatch.matching import disparity_range as dr
     assert res.config.max_disparity == 200 * dr.RANGE_MARGIN + dr.RANGE_PIXELS
-    assert res.config.min_disparity == 0.0
+    # and min_disparity None (no floor): the same margin below 0
+    assert res.config.min_disparity == -res.config.max_disparity
     assert res.config.theta == hopmatch.HopfieldMatcher().getTheta()
     paper = hopmatch.hopfield_match(PTS, PTS, DESC, DESC, preset="paper")
     assert paper.config.max_disparity == 30.0 and paper.config.preset == "paper"
@@ -149,11 +150,11 @@ def test_two_unrelated_images_of_one_size_warn():
 def test_stereo_pairs_are_not_called_unrelated(motorcycle):
     """Rectified, unrectified (rotated and shifted) and swapped views of one scene never get
     the warning; the unrectified one gets the rectification warning alone, the swapped one
-    the few-matches warning (its disparities are negative, so the range search finds
-    nothing) alone."""
+    the warning that every disparity the range search found is negative (it is matched at
+    them: min_disparity=None) alone."""
     import cv2
 
-    from hopmatch.errors import FewMatchesWarning, UnrectifiedPairWarning
+    from hopmatch.errors import DisparityRangeWarning, UnrectifiedPairWarning
     from hopmatch.matching.diagnostics import NotStereoPairWarning
 
     left, right = (cv2.cvtColor(img, cv2.COLOR_RGB2GRAY) for img in motorcycle[:2])
@@ -163,7 +164,7 @@ def test_stereo_pairs_are_not_called_unrelated(motorcycle):
     for l_img, r_img, expected in ((left, right, []),
                                    (left, cv2.warpAffine(right, M, (w, h)),
                                     [UnrectifiedPairWarning]),
-                                   (right, left, [FewMatchesWarning])):
+                                   (right, left, [DisparityRangeWarning])):
         _, caught = _caught(lambda a=l_img, b=r_img: hopmatch.match_stereo(a, b))
         categories = [w.category for w in caught]
         assert NotStereoPairWarning not in categories

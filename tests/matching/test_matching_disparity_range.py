@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import warnings
 
 import cv2
 import numpy as np
@@ -51,14 +52,26 @@ def test_the_range_found_covers_a_uniform_shift_and_is_recorded():
 
 
 def test_min_disparity_none_lets_the_range_go_negative():
+    """By default (min_disparity=None) the range found may go negative: a right image
+    offset sideways keeps its matches; a range wholly negative is matched and warned about
+    (two views in the wrong order look so). With the floor 0 it finds none."""
     left = textured(seed=1)
     right = np.roll(left, 7, axis=1)  # disparity -7 everywhere
-    with pytest.warns(FewMatchesWarning, match="coarse pass found no range"):  # floor 0
-        assert len(hopmatch.match_stereo(left, right).query_idx) < 20
-    res = hopmatch.match_stereo(left, right, min_disparity=None)
+    with pytest.warns(FewMatchesWarning, match="coarse pass found no range"):
+        assert len(hopmatch.match_stereo(left, right, min_disparity=0).query_idx) < 20
+    with pytest.warns(DisparityRangeWarning, match="every disparity the coarse pass found is "
+                                                   r"negative.*right image given first"):
+        res = hopmatch.match_stereo(left, right)
     assert res.network.config.min_disparity < -7 < res.network.config.max_disparity
     assert len(res.query_idx) > 100
     assert np.median(res.disparities) == pytest.approx(-7.0, abs=0.5)
+    # a range partly negative (a sideways offset of a scene at several depths): no warning
+    half = np.concatenate((np.roll(left, 4, axis=1)[:, :130], np.roll(left, -6, axis=1)[:, 130:]),
+                          axis=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DisparityRangeWarning)
+        mixed = hopmatch.match_stereo(left, half)
+    assert mixed.network.config.min_disparity < -4 and mixed.network.config.max_disparity > 6
 
 
 def test_a_given_max_disparity_is_used_as_given():
@@ -93,7 +106,8 @@ def shifted_pair():
     det = hopmatch.DericheMoravecDetector()
     pl, _, dl, _ = det.detect_and_describe(left)
     pr, _, drr, _ = det.detect_and_describe(right)
-    return pl, pr, dl, drr, hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480))
+    return pl, pr, dl, drr, hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480),
+                                                    min_disparity=0.0)
 
 
 def test_a_found_range_over_every_budget_step_raises(shifted_pair):
@@ -145,7 +159,7 @@ def test_a_found_range_over_budget_keeps_as_much_of_its_widening_as_fits(shifted
     what = "the coarse matches' own range" if share == 0 else f"{share:.0%} of its widening"
     with pytest.warns(DisparityRangeWarning, match="exceeds a budget.*" + re.escape(what)):
         res = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480),
-                                      max_neurons=budget)
+                                      max_neurons=budget, min_disparity=0.0)
     assert (res.config.min_disparity, res.config.max_disparity) == pytest.approx(searched(share))
     assert len(res.query_idx) > 50
 
@@ -177,7 +191,7 @@ def test_a_found_range_over_every_budget_step_runs_on_thinned_left_points(shifte
     with pytest.warns(DisparityRangeWarning, match=r"exceeds a budget.*the network ran there "
                                                    rf"on \d+ of the {len(pl)} left points"):
         res = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480),
-                                      max_neurons=budget)
+                                      max_neurons=budget, min_disparity=0.0)
     kept = res.thinned
     assert kept is not None and 0 < len(kept) < len(pl) and (np.diff(kept) > 0).all()
     assert np.isin(res.neuron_left, kept).all() and np.isin(res.query_idx, kept).all()
@@ -188,7 +202,7 @@ def test_a_found_range_over_every_budget_step_runs_on_thinned_left_points(shifte
     assert len(d) > 0.5 * len(kept) and np.mean(np.abs(d - 10.0) <= 1.0) > 0.97
     with pytest.warns(DisparityRangeWarning):
         again = hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480),
-                                        max_neurons=budget)
+                                        max_neurons=budget, min_disparity=0.0)
     np.testing.assert_array_equal(again.query_idx, res.query_idx)
     np.testing.assert_array_equal(again.train_idx, res.train_idx)
     assert free.thinned is None
@@ -207,7 +221,8 @@ def test_thinning_refuses_budgets_below_its_sample_and_leaves_given_ranges_alone
                                 min_disparity=free.config.min_disparity, max_neurons=budget)
     monkeypatch.setattr(dr, "THIN_SAMPLE", len(pl))  # the sample: every point, over budget
     with pytest.raises(BudgetExceededError, match=f"max_neurons={budget}"):
-        hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480), max_neurons=budget)
+        hopmatch.hopfield_match(pl, pr, dl, drr, image_size=(640, 480), max_neurons=budget,
+                                min_disparity=0.0)
 
 
 def test_the_range_covers_the_true_range_on_every_shared_scene(shared_data):
