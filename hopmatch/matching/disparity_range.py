@@ -52,7 +52,8 @@ class DisparityRange(NamedTuple):
 
     ``source`` is ``'given'`` (``max_disparity`` set by the caller), ``'coarse'`` (found by
     the coarse pass from ``n_matches`` matches spanning ``found``), ``'fallback'`` (the
-    coarse pass kept too few matches: the whole coarse search range) or ``'empty'`` (no
+    coarse pass kept too few matches: the whole coarse search range, from 0 when
+    ``min_disparity`` is None) or ``'empty'`` (no
     keypoints or descriptors on a side: the coarse search range, nothing to find)."""
 
     min_disparity: float
@@ -190,7 +191,9 @@ def resolve_disparity_range(config, q_pts, t_pts, qd, td, query_size, run_networ
     if config.max_disparity is not None:
         return DisparityRange(bottom, top, "given")
     width = search_width(query_size, q_pts, t_pts)
-    fallback = DisparityRange(bottom, top, "fallback")
+    # a range the coarse pass cannot find is searched over positive disparities (the
+    # common case) unless a floor is given: [0, top], not the coarse search's [-top, top]
+    fallback = DisparityRange(max(bottom, 0.0) if floor is None else bottom, top, "fallback")
     if not len(q_pts) or not len(t_pts) or not len(qd) or not len(td):
         return fallback._replace(source="empty")
     found = coarse_extent(config, q_pts, t_pts, qd, td, bottom, top, width, run_network,

@@ -94,7 +94,13 @@ def test_nothing_to_find_warns_that_the_fallback_range_was_searched():
     with pytest.warns(NotStereoPairWarning):
         res = hopmatch.match_stereo(left, right, similarity_gate=0.0)
     assert len(res.query_idx) == 0
-    assert res.network.config.max_disparity == pytest.approx(0.25 * 160)
+    # the positive disparities without a floor given (the coarse pass searched from -W/4)
+    assert (res.network.config.min_disparity, res.network.config.max_disparity) == \
+        pytest.approx((0.0, 0.25 * 160))
+    with pytest.warns(NotStereoPairWarning):
+        floor = hopmatch.match_stereo(left, right, similarity_gate=0.0, min_disparity=-8)
+    assert (floor.network.config.min_disparity, floor.network.config.max_disparity) == \
+        pytest.approx((-8.0, 0.25 * 160))
 
 
 @pytest.fixture(scope="module")
