@@ -27,6 +27,9 @@ import json
 import sys
 from pathlib import Path
 
+import cv2
+import numpy as np
+
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
@@ -85,9 +88,6 @@ def make_pair(width: int, height: int, sigma: float, seed: int = 0):
     """``(left, right)`` uint8 images of ``height x width``: blurred Gaussian noise, and
     the same resampled along its rows by the plane of :func:`disparity_at` (a right point
     at x sees the left image at ``x + d``, d the disparity there)."""
-    import cv2
-    import numpy as np
-
     rng = np.random.default_rng(seed)
     pad = int((D_TOP_LEFT + D_ACROSS + D_DOWN) * width) + 8
     noise = rng.normal(0.0, 1.0, (height, width + pad)).astype(np.float32)
@@ -105,8 +105,6 @@ def disparity_at(x, y, width: int, height: int):
 
 def true_right_x(left_points, width: int, height: int):
     """The true right x of each left point (x, y): the x_r with ``x_r + d(x_r, y) = x``."""
-    import numpy as np
-
     xl = left_points[:, 0].astype(np.float64)
     yl = left_points[:, 1].astype(np.float64)
     # d is linear in x_r: x_l = x_r (1 + D_ACROSS) + width (D_TOP_LEFT + D_DOWN y / height)

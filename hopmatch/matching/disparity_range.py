@@ -124,6 +124,19 @@ def coarse_config(config, n_left: int, n_kept: int, min_disparity: float,
         neighbour_height=config.neighbour_height * f, theta=config.theta * f)
 
 
+def run_on_thinned(run_network, config, q_pts, t_pts, qd, td, keep, bottom: float,
+                   top: float, *, mask=None, **kwargs):
+    """``run_network`` over ``[bottom, top]`` on the left points ``keep`` (of
+    :func:`thin_points`) and every right point, with the neighbourhood of
+    :func:`coarse_config`: the result in the indices of the kept points. A
+    :class:`~hopmatch.errors.BudgetExceededError` propagates."""
+    cfg = coarse_config(config, len(q_pts), len(keep), bottom, top)
+    return run_network(np.ascontiguousarray(q_pts[keep]), t_pts,
+                       np.ascontiguousarray(qd[keep]), td, cfg,
+                       mask=None if mask is None else np.ascontiguousarray(mask[keep]),
+                       **kwargs)
+
+
 def coarse_extent(config, q_pts, t_pts, qd, td, bottom: float, top: float, width: float,
                   run_network, *, mask=None, fundamental=None):
     """``(lo, hi, n)``: the trimmed extent of the ``n`` matches of the coarse pass searching
@@ -132,12 +145,9 @@ def coarse_extent(config, q_pts, t_pts, qd, td, bottom: float, top: float, width
     if not len(q_pts) or not len(t_pts) or not len(qd) or not len(td):
         return None
     keep = thin_points(q_pts, COARSE_POINTS)
-    cfg = coarse_config(config, len(q_pts), len(keep), bottom, top)
     try:
-        coarse = run_network(np.ascontiguousarray(q_pts[keep]), t_pts,
-                             np.ascontiguousarray(qd[keep]), td, cfg,
-                             mask=None if mask is None else np.ascontiguousarray(mask[keep]),
-                             fundamental=fundamental)
+        coarse = run_on_thinned(run_network, config, q_pts, t_pts, qd, td, keep, bottom,
+                                top, mask=mask, fundamental=fundamental)
     except BudgetExceededError:
         return None
     n = len(coarse.query_idx)
@@ -331,13 +341,10 @@ def run_thinned(run_network, config, q_pts, t_pts, qd, td, *, mask=None, **kwarg
         keep = thin_points(q_pts, target)
         if len(keep) >= len(q_pts) or len(keep) < THIN_MIN_POINTS:
             return None
-        cfg = coarse_config(config, len(q_pts), len(keep), config.min_disparity,
-                            config.max_disparity)
         try:
-            result = run_network(
-                np.ascontiguousarray(q_pts[keep]), t_pts, np.ascontiguousarray(qd[keep]), td,
-                cfg, mask=None if mask is None else np.ascontiguousarray(mask[keep]),
-                **kwargs)
+            result = run_on_thinned(run_network, config, q_pts, t_pts, qd, td, keep,
+                                    config.min_disparity, config.max_disparity, mask=mask,
+                                    **kwargs)
         except BudgetExceededError:
             target = len(keep) // 2
             continue
