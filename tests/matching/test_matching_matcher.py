@@ -221,6 +221,16 @@ def test_housekeeping(features, tmp_path):
     assert m.empty() and m.getLastResult() is None
 
 
+def test_read_overwrites_every_parameter_none_included(tmp_path):
+    # as cv2's read: the file's values replace the object's, a None (stored as a mark) too
+    path = tmp_path / "defaults.yml"
+    HopfieldMatcher().write(path)
+    m = HopfieldMatcher(max_disparity=50, min_disparity=3, theta=4.0)
+    m.read(path)
+    assert m.get_params() == HopfieldMatcher().get_params()
+    assert m.getMaxDisparity() is None and m.getMinDisparity() is None
+
+
 def test_sift_descriptors_are_accepted(pair):
     sift = cv2.SIFT_create(500)
     kl, dl = sift.detectAndCompute(pair[0], None)
