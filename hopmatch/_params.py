@@ -412,6 +412,20 @@ class Configurable:
             self._params = old  # a bad file leaves the object as it was
             raise
 
+    # -- cv2.Algorithm housekeeping ------------------------------------------------------
+    def save(self, filename) -> None:
+        """``cv2.Algorithm.save``: :meth:`write` to a ``.yml``/``.yaml``/``.xml``/``.json``
+        file, under :meth:`getDefaultName`."""
+        self.write(filename)
+
+    def load(self, filename) -> None:
+        """Read the parameters :meth:`save` wrote (see :meth:`read`)."""
+        self.read(filename)
+
+    def clear(self) -> None:
+        """``cv2.Algorithm.clear``: nothing to forget here (subclasses that keep data
+        between calls override it)."""
+
     # -- Python protocols ----------------------------------------------------------------
     def __repr__(self) -> str:
         defaults = {p.name: p.check(p.name, p.default) if p.default is not None else None

@@ -270,16 +270,7 @@ class StereoHopfield(Configurable):
         matches as arrays and cv2 objects), or None."""
         return self._last
 
-    # -- cv2.Algorithm housekeeping ------------------------------------------------------
-    def save(self, filename) -> None:
-        """``cv2.Algorithm.save``: :meth:`write` to a ``.yml``/``.yaml``/``.xml``/``.json``
-        file."""
-        self.write(filename)
-
-    def load(self, filename) -> None:
-        """Read the parameters :meth:`save` wrote (see :meth:`read`)."""
-        self.read(filename)
-
+    # -- cv2.Algorithm housekeeping (save, load: Configurable's) --------------------------
     def empty(self) -> bool:
         """False: a StereoHopfield is ready to compute as soon as it is created."""
         return False

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import threading
+from itertools import repeat
 
 import cv2
 import numpy as np
@@ -48,14 +49,23 @@ from .similarity import match_distance
 __all__ = ["HopfieldMatcher", "dmatches", "hopfield_match", "ranked_candidates"]
 
 
+def _is_number(value) -> bool:
+    """A real number (not a bool, not an array): cv2's ``knnMatch(query, k)`` and
+    ``radiusMatch(query, maxDistance)`` forms give one where the train descriptors go."""
+    return isinstance(value, (int, float, np.integer, np.floating)) \
+        and not isinstance(value, (bool, np.bool_))
+
+
 def dmatches(query_idx, train_idx, distances) -> tuple:
-    """A tuple of ``cv2.DMatch(query_idx[m], train_idx[m], distances[m])`` (imgIdx -1).
+    """A tuple of ``cv2.DMatch(query_idx[m], train_idx[m], 0, distances[m])``: imgIdx 0,
+    the one train image, as ``cv2.BFMatcher`` gives it.
 
     Built in bulk: ``cv2.DMatch`` called from C (``map``) on flat lists, about half the
     time of a generator that calls it per match.
     """
     return tuple(map(cv2.DMatch, np.asarray(query_idx).tolist(),
-                     np.asarray(train_idx).tolist(), np.asarray(distances).tolist()))
+                     np.asarray(train_idx).tolist(), repeat(0),
+                     np.asarray(distances).tolist()))
 
 
 def ranked_candidates(res: NetworkResult, n_query: int) -> list[tuple[list, list]]:
@@ -136,6 +146,7 @@ class HopfieldMatcher(Configurable):
         """No pair information; generation 0 (see :meth:`_set_pair_state`)."""
         self._pair = None
         self._fundamental = None
+        self._train = None  # the descriptors add() gave: one train image's, or None
         self._pair_lock = threading.Lock()
         self._generation = 0
         self._set_here = threading.local()  # .generation: what this thread's last set made
@@ -251,13 +262,58 @@ class HopfieldMatcher(Configurable):
         return None if self._fundamental is None else self._fundamental.copy()
 
     # -- matching ------------------------------------------------------------------------
+    # -- the train collection (as cv2.DescriptorMatcher's) -------------------------------
+    def add(self, descriptors) -> None:
+        """Add the train (right) image's descriptors, as ``cv2.DescriptorMatcher.add``:
+        a list holding one descriptor array (or the array itself). ``match(des1)``,
+        ``knnMatch(des1, k)`` and ``radiusMatch(des1, maxDistance)`` then match against
+        them (the keypoints still come from :meth:`setPairInfo`).
+
+        The network matches one stereo pair, so the collection holds one train image:
+        adding a second raises :class:`~hopmatch.errors.InvalidArgumentError` (call
+        :meth:`clear` first). The array is copied."""
+        if isinstance(descriptors, (list, tuple)):
+            if len(descriptors) != 1:
+                raise InvalidArgumentError(
+                    f"`descriptors`: HopfieldMatcher matches one stereo pair, so add() takes "
+                    f"the descriptors of one train image (a list of one array), got a list of "
+                    f"{len(descriptors)}", argument="descriptors")
+            descriptors = descriptors[0]
+        desc = np.array(as_descriptors(descriptors, "descriptors"))  # a copy
+        if self._train is not None:
+            raise InvalidArgumentError(
+                "`descriptors`: the train collection already holds one image's descriptors "
+                f"({len(self._train)} rows); HopfieldMatcher matches one stereo pair: call "
+                "clear() before adding another", argument="descriptors")
+        self._train = desc
+
+    def getTrainDescriptors(self) -> list:  # noqa: N802
+        """The train collection, as ``cv2.DescriptorMatcher.getTrainDescriptors``: a list
+        of zero or one descriptor arrays (:meth:`add`)."""
+        return [] if self._train is None else [self._train]
+
+    def train(self) -> None:
+        """``cv2.DescriptorMatcher.train``: nothing to train (the network is built per
+        match)."""
+
+    def _train_descriptors(self, trainDescriptors):  # noqa: N803
+        """``trainDescriptors``, or the collection's when None (:meth:`add`)."""
+        if trainDescriptors is not None:
+            return trainDescriptors
+        if self._train is None:
+            raise PairInfoError(
+                "no train descriptors: pass them (match(queryDescriptors, trainDescriptors)) "
+                "or add them first (matcher.add([trainDescriptors]))")
+        return self._train
+
     def config(self) -> MatcherConfig:
         """The parameters as a frozen :data:`~hopmatch.matching.params.MatcherConfig`."""
         return MatcherConfig(**self._params)
 
-    def run(self, queryDescriptors, trainDescriptors, mask=None,  # noqa: N803
+    def run(self, queryDescriptors, trainDescriptors=None, mask=None,  # noqa: N803
             record_energy: bool = False) -> NetworkResult:
         """Run the network and return everything it computed (:class:`NetworkResult`).
+        ``trainDescriptors`` None: those of the train collection (:meth:`add`).
 
         Warns (:class:`~hopmatch.errors.HopmatchWarning` subclasses) when the images differ
         in size, when the disparity range is wider than the left image, or when the pair
@@ -270,6 +326,7 @@ class HopfieldMatcher(Configurable):
         """:meth:`run`, also returning the pair information it used (read once, so that a
         concurrent ``setPairInfo`` cannot mix two pairs in one call, and checked again at
         the end: :class:`ConcurrentPairInfoError` if it changed meanwhile)."""
+        trainDescriptors = self._train_descriptors(trainDescriptors)  # noqa: N806
         pair, fundamental, generation = self._pair_state()
         if pair is None:
             raise PairInfoError(
@@ -287,18 +344,23 @@ class HopfieldMatcher(Configurable):
         self._last = result
         return result, pair
 
-    def match(self, queryDescriptors, trainDescriptors, mask=None):  # noqa: N803
+    def match(self, queryDescriptors, trainDescriptors=None, mask=None):  # noqa: N803
         """The network's matches after disambiguation and the left-right check.
 
         Returns a tuple of ``cv2.DMatch`` (queryIdx = left point, trainIdx = right point),
-        ordered by queryIdx.
+        ordered by queryIdx. ``trainDescriptors`` None: those of the train collection
+        (:meth:`add`), as cv2's ``match(queryDescriptors)``. ``imgIdx`` is 0 (the one
+        train image), as ``cv2.BFMatcher`` gives it in both forms.
         """
         res = self._run(queryDescriptors, trainDescriptors, mask)[0]
         return dmatches(res.query_idx, res.train_idx, res.distances)
 
-    def knnMatch(self, queryDescriptors, trainDescriptors, k, mask=None,  # noqa: N802, N803
-                 compactResult=False):  # noqa: N803
+    def knnMatch(self, queryDescriptors, trainDescriptors=None, k=None,  # noqa: N802, N803
+                 mask=None, compactResult=False):  # noqa: N803
         """Up to ``k`` matches per query, ranked by the network's evidence.
+
+        As in cv2, ``knnMatch(queryDescriptors, k)`` (a number second) matches against
+        the train collection (:meth:`add`).
 
         Each query's candidates (neurons) come first, by increasing
         ``distance = 1 / (1 + exp(u))``; when it has fewer than ``k``, the list is padded
@@ -307,6 +369,10 @@ class HopfieldMatcher(Configurable):
         works unchanged. With ``compactResult=True`` queries without candidates are left
         out.
         """
+        if k is None and _is_number(trainDescriptors):  # cv2's knnMatch(query, k)
+            trainDescriptors, k = None, trainDescriptors  # noqa: N806
+        if k is None:
+            raise InvalidTypeError("knnMatch() needs `k`, the number of matches per query")
         k = as_int(k, "k", lo=1)
         res, pair = self._run(queryDescriptors, trainDescriptors, mask)
         n_train = len(pair.train_points)
@@ -315,7 +381,7 @@ class HopfieldMatcher(Configurable):
         for qi, (cands, dists) in enumerate(ranked):
             if compactResult and not cands:
                 continue
-            row = [cv2.DMatch(qi, t, d) for t, d in zip(cands[:k], dists[:k])]
+            row = [cv2.DMatch(qi, t, 0, d) for t, d in zip(cands[:k], dists[:k])]
             if len(row) < k and not compactResult:
                 taken = set(cands[:k])
                 allowed = (range(n_train) if mask is None
@@ -324,13 +390,19 @@ class HopfieldMatcher(Configurable):
                     if len(row) >= k:
                         break
                     if t not in taken:
-                        row.append(cv2.DMatch(qi, int(t), 1.0))
+                        row.append(cv2.DMatch(qi, int(t), 0, 1.0))
             out.append(row)
         return out
 
-    def radiusMatch(self, queryDescriptors, trainDescriptors, maxDistance,  # noqa: N802, N803
-                    mask=None, compactResult=False):  # noqa: N803
-        """Every candidate with ``distance <= maxDistance``, per query, best first."""
+    def radiusMatch(self, queryDescriptors, trainDescriptors=None,  # noqa: N802, N803
+                    maxDistance=None, mask=None, compactResult=False):  # noqa: N803
+        """Every candidate with ``distance <= maxDistance``, per query, best first.
+        As in cv2, ``radiusMatch(queryDescriptors, maxDistance)`` (a number second)
+        matches against the train collection (:meth:`add`)."""
+        if maxDistance is None and _is_number(trainDescriptors):  # cv2's 2-argument form
+            trainDescriptors, maxDistance = None, trainDescriptors  # noqa: N806
+        if maxDistance is None:
+            raise InvalidTypeError("radiusMatch() needs `maxDistance`, a number in [0, 1]")
         if isinstance(maxDistance, bool) or not isinstance(maxDistance, (int, float, np.number)):
             raise InvalidTypeError(f"`maxDistance` must be a number, got {maxDistance!r}")
         if maxDistance != maxDistance:
@@ -340,7 +412,7 @@ class HopfieldMatcher(Configurable):
         res, pair = self._run(queryDescriptors, trainDescriptors, mask)
         out = []
         for qi, (cands, dists) in enumerate(ranked_candidates(res, len(pair.query_points))):
-            row = [cv2.DMatch(qi, t, d) for t, d in zip(cands, dists) if d <= maxDistance]
+            row = [cv2.DMatch(qi, t, 0, d) for t, d in zip(cands, dists) if d <= maxDistance]
             if row or not compactResult:
                 out.append(row)
         return out
@@ -362,21 +434,27 @@ class HopfieldMatcher(Configurable):
         return True
 
     def empty(self) -> bool:
-        """True while no pair information is set."""
-        return self._pair is None
+        """True while neither pair information nor train descriptors (:meth:`add`) are
+        set."""
+        return self._pair is None and self._train is None
 
     def clear(self) -> None:
-        """Forget the pair information and the last result."""
+        """Forget the pair information, the train collection and the last result."""
         self.clearPairInfo()
+        self._train = None
         self._last = None
 
     def clone(self, emptyTrainData=False):  # noqa: N803
-        """A copy with the same parameters (and pair information unless ``emptyTrainData``)."""
+        """A copy with the same parameters (and pair information and train collection
+        unless ``emptyTrainData``)."""
         other = type(self)(**self._params)
-        if not emptyTrainData and self._pair is not None:
-            other._pair = copy.deepcopy(self._pair)
-            other._fundamental = self.getFundamentalMatrix()
-            other._generation = 1
+        if not emptyTrainData:
+            if self._pair is not None:
+                other._pair = copy.deepcopy(self._pair)
+                other._fundamental = self.getFundamentalMatrix()
+                other._generation = 1
+            if self._train is not None:
+                other._train = self._train.copy()
         return other
 
     def __getstate__(self):

@@ -231,6 +231,76 @@ def test_read_overwrites_every_parameter_none_included(tmp_path):
     assert m.getMaxDisparity() is None and m.getMinDisparity() is None
 
 
+def _key(rows):
+    return [[(x.queryIdx, x.trainIdx, x.imgIdx, x.distance) for x in row] for row in rows]
+
+
+def test_the_train_collection_as_cv2s(features):
+    # cv2's collection form: add([train]), train(), match(query) - the same matches as
+    # match(query, train), with imgIdx 0
+    kl, dl, kr, dr = features
+    m = _matcher(features)
+    two_args = m.match(dl, dr)
+    knn_two, radius_two = m.knnMatch(dl, dr, k=2), m.radiusMatch(dl, dr, 0.5)
+    assert m.getTrainDescriptors() == []
+    m.add([dr])
+    m.train()
+    assert len(m.getTrainDescriptors()) == 1
+    assert np.array_equal(m.getTrainDescriptors()[0], dr)
+    assert m.getTrainDescriptors()[0] is not dr  # a copy, as documented
+    assert _key([m.match(dl)]) == _key([two_args])
+    assert all(x.imgIdx == 0 for x in two_args)
+    assert _key(m.knnMatch(dl, 2)) == _key(knn_two)  # cv2's knnMatch(query, k)
+    assert _key(m.knnMatch(dl, k=2)) == _key(knn_two)
+    assert _key(m.radiusMatch(dl, 0.5)) == _key(radius_two)  # radiusMatch(query, maxDist)
+    # given train descriptors win over the collection
+    assert _key([m.match(dl, dr[::-1].copy())]) != _key([two_args])
+    # one stereo pair: a second image is refused, by name
+    with pytest.raises(InvalidArgumentError, match="clear"):
+        m.add([dr])
+    with pytest.raises(InvalidArgumentError, match="list of 2"):
+        HopfieldMatcher().add([dr, dr])
+    with pytest.raises(InvalidTypeError, match="descriptors"):
+        HopfieldMatcher().add(["not an array"])
+    twin = m.clone()
+    assert len(twin.getTrainDescriptors()) == 1 and not m.clone(emptyTrainData=True).empty()\
+        is None
+    assert m.clone(emptyTrainData=True).getTrainDescriptors() == []
+    m.clear()
+    assert m.getTrainDescriptors() == [] and m.empty()
+
+
+def test_the_collection_alone_makes_a_matcher_non_empty_and_is_needed(features):
+    kl, dl, kr, dr = features
+    m = HopfieldMatcher()
+    assert m.empty()
+    m.add(dr)  # the array itself, as well as a list of one
+    assert not m.empty()
+    with pytest.raises(PairInfoError, match="setPairInfo"):
+        m.match(dl)
+    with pytest.raises(PairInfoError, match="add"):
+        _matcher(features).match(dl)
+    with pytest.raises(InvalidTypeError, match="`k`"):
+        _matcher(features).knnMatch(dl, dr)
+    with pytest.raises(InvalidTypeError, match="maxDistance"):
+        _matcher(features).radiusMatch(dl, dr)
+
+
+def test_save_load_and_clear_as_cv2_algorithm(tmp_path):
+    for obj in (HopfieldMatcher(theta=4.0), DericheMoravecDetector(nms_size=5)):
+        path = tmp_path / f"{obj.getDefaultName()}.yml"
+        obj.save(str(path))
+        other = type(obj)()
+        other.load(str(path))
+        assert other.get_params() == obj.get_params()
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+        assert not fs.getNode(obj.getDefaultName()).empty()  # under the default name
+        fs.release()
+    det = DericheMoravecDetector()
+    det.clear()  # cv2.Algorithm.clear: nothing to forget
+    assert not det.empty()
+
+
 def test_sift_descriptors_are_accepted(pair):
     sift = cv2.SIFT_create(500)
     kl, dl = sift.detectAndCompute(pair[0], None)
@@ -437,7 +507,7 @@ def test_match_is_the_same_for_own_keypoints_arrays_and_copies(motorcycle):
     naive = hopmatch.HopfieldMatcher()
     naive.setPairInfo(kl, kr, size, size)
     res = naive.run(dl, dr)
-    assert own == [(int(q), int(t), float(d), -1) for q, t, d in
+    assert own == [(int(q), int(t), float(d), 0) for q, t, d in
                    zip(res.query_idx, res.train_idx, res.distances)]
     q0 = own[0][0]
     kl[q0].pt = (kl[q0].pt[0], kl[q0].pt[1] + 40.0)  # off its row: its match must change
