@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import copy
 import threading
-from itertools import repeat
 
 import cv2
 import numpy as np
@@ -57,15 +56,24 @@ def _is_number(value) -> bool:
 
 
 def dmatches(query_idx, train_idx, distances) -> tuple:
-    """A tuple of ``cv2.DMatch(query_idx[m], train_idx[m], 0, distances[m])``: imgIdx 0,
-    the one train image, as ``cv2.BFMatcher`` gives it.
+    """A tuple of ``cv2.DMatch(query_idx[m], train_idx[m], distances[m])`` with imgIdx 0,
+    the one train image, as ``cv2.BFMatcher`` gives it (set after construction: the
+    four-argument constructor costs five times the three-argument one, its overload
+    tried second).
 
     Built in bulk: ``cv2.DMatch`` called from C (``map``) on flat lists, about half the
     time of a generator that calls it per match.
     """
-    return tuple(map(cv2.DMatch, np.asarray(query_idx).tolist(),
-                     np.asarray(train_idx).tolist(), repeat(0),
-                     np.asarray(distances).tolist()))
+    return _in_image_zero(tuple(map(cv2.DMatch, np.asarray(query_idx).tolist(),
+                                    np.asarray(train_idx).tolist(),
+                                    np.asarray(distances).tolist())))
+
+
+def _in_image_zero(matches):
+    """``matches`` (cv2.DMatch objects) with ``imgIdx`` set to 0; returns them."""
+    for m in matches:
+        m.imgIdx = 0
+    return matches
 
 
 def ranked_candidates(res: NetworkResult, n_query: int) -> list[tuple[list, list]]:
@@ -381,7 +389,7 @@ class HopfieldMatcher(Configurable):
         for qi, (cands, dists) in enumerate(ranked):
             if compactResult and not cands:
                 continue
-            row = [cv2.DMatch(qi, t, 0, d) for t, d in zip(cands[:k], dists[:k])]
+            row = [cv2.DMatch(qi, t, d) for t, d in zip(cands[:k], dists[:k])]
             if len(row) < k and not compactResult:
                 taken = set(cands[:k])
                 allowed = (range(n_train) if mask is None
@@ -390,8 +398,8 @@ class HopfieldMatcher(Configurable):
                     if len(row) >= k:
                         break
                     if t not in taken:
-                        row.append(cv2.DMatch(qi, int(t), 0, 1.0))
-            out.append(row)
+                        row.append(cv2.DMatch(qi, int(t), 1.0))
+            out.append(_in_image_zero(row))
         return out
 
     def radiusMatch(self, queryDescriptors, trainDescriptors=None,  # noqa: N802, N803
@@ -412,9 +420,9 @@ class HopfieldMatcher(Configurable):
         res, pair = self._run(queryDescriptors, trainDescriptors, mask)
         out = []
         for qi, (cands, dists) in enumerate(ranked_candidates(res, len(pair.query_points))):
-            row = [cv2.DMatch(qi, t, 0, d) for t, d in zip(cands, dists) if d <= maxDistance]
+            row = [cv2.DMatch(qi, t, d) for t, d in zip(cands, dists) if d <= maxDistance]
             if row or not compactResult:
-                out.append(row)
+                out.append(_in_image_zero(row))
         return out
 
     # -- energy and last result --------------------------------------------------------

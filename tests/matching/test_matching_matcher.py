@@ -249,7 +249,8 @@ def test_the_train_collection_as_cv2s(features):
     assert np.array_equal(m.getTrainDescriptors()[0], dr)
     assert m.getTrainDescriptors()[0] is not dr  # a copy, as documented
     assert _key([m.match(dl)]) == _key([two_args])
-    assert all(x.imgIdx == 0 for x in two_args)
+    assert all(x.imgIdx == 0 for x in two_args)  # as BFMatcher, in every form
+    assert all(x.imgIdx == 0 for rows in (knn_two, radius_two) for row in rows for x in row)
     assert _key(m.knnMatch(dl, 2)) == _key(knn_two)  # cv2's knnMatch(query, k)
     assert _key(m.knnMatch(dl, k=2)) == _key(knn_two)
     assert _key(m.radiusMatch(dl, 0.5)) == _key(radius_two)  # radiusMatch(query, maxDist)
