@@ -62,8 +62,10 @@ def ratio_pipeline(feature, norm):
     return run
 
 
-def dropin_pipeline(left, right):
-    """The cv2 drop-in path on one grey pair: detectAndCompute x2, setPairInfo, match."""
+def dropin_pipeline(left, right, knn: bool = False):
+    """The cv2 drop-in path on one grey pair: detectAndCompute x2, setPairInfo, match; with
+    ``knn``, OpenCV's tutorial flow instead of match: knnMatch(k=2) and the ratio test
+    (0.75), as :func:`ratio_pipeline` runs it for ORB and SIFT."""
     det, matcher = hopmatch.DericheMoravecDetector.create(), hopmatch.HopfieldMatcher.create()
     size_l, size_r = left.shape[1::-1], right.shape[1::-1]
 
@@ -71,7 +73,10 @@ def dropin_pipeline(left, right):
         kl, dl = det.detectAndCompute(left, None)
         kr, dr = det.detectAndCompute(right, None)
         matcher.setPairInfo(kl, kr, size_l, size_r)
-        return matcher.match(dl, dr)
+        if not knn:
+            return matcher.match(dl, dr)
+        return [m for m, n in (p for p in matcher.knnMatch(dl, dr, k=2) if len(p) == 2)
+                if m.distance < 0.75 * n.distance]
 
     return run
 
@@ -127,6 +132,7 @@ def main(argv=None) -> None:
         "orb": lambda: orb(gl, gr),
         "sift": lambda: sift(gl, gr),
         "dropin": dropin_pipeline(gl, gr),
+        "dropin_knn": dropin_pipeline(gl, gr, knn=True),
         "hop2": lambda: hopmatch.match_stereo(gl, gr, threads=2),
         "grad": gradients(gl, gr),
         "k_dropin": dropin_pipeline(kl, kr),
@@ -170,6 +176,8 @@ def dropin_table(times: dict, kitti_note: str, kitti_shape) -> None:
     print("|---|---:|---:|---:|---:|")
     rows = [("drop-in: detectAndCompute x2 + setPairInfo + match", t["dropin"], t["orb"],
              t["sift"], t["grad"]),
+            ("drop-in, OpenCV's tutorial: the same with knnMatch(k=2) + ratio 0.75 for match",
+             t["dropin_knn"], t["orb"], t["sift"], t["grad"]),
             ("hopmatch.match_stereo, 1 thread", t["hop"], t["orb"], t["sift"], t["grad"]),
             ("hopmatch.match_stereo, 2 threads", t["hop2"], t["orb"], t["sift"], None),
             (f"KITTI #70 ({kitti_shape[1]}x{kitti_shape[0]}) drop-in path", t["k_dropin"],

@@ -45,7 +45,8 @@ from .network import NetworkResult, PairInfo, hopfield_match, match_pair
 from .params import MATCHER_PARAMS, PRESETS, MatcherConfig, check_disparity_order
 from .similarity import match_distance
 
-__all__ = ["HopfieldMatcher", "dmatches", "hopfield_match", "ranked_candidates"]
+__all__ = ["HopfieldMatcher", "dmatch_rows", "dmatches", "hopfield_match", "knn_rows",
+           "radius_rows", "ranked_candidates", "ranked_neurons"]
 
 
 def _is_number(value) -> bool:
@@ -79,12 +80,90 @@ def _in_image_zero(matches):
 def ranked_candidates(res: NetworkResult, n_query: int) -> list[tuple[list, list]]:
     """Each query's candidates (neurons) as ``(train indices, distances)``, by increasing
     distance (:func:`~hopmatch.matching.similarity.match_distance`), ties by train index."""
+    left, right, dist = ranked_neurons(res)
+    bounds = np.searchsorted(left, np.arange(n_query + 1))
+    right, dist = right.tolist(), dist.tolist()
+    return [(right[a:b], dist[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def ranked_neurons(res: NetworkResult):
+    """``(left, right, distance)`` of every neuron, int64, int64 and float64, ordered by
+    left point, then by increasing distance
+    (:func:`~hopmatch.matching.similarity.match_distance`), ties by train index."""
     dist = match_distance(res.fields)
     order = np.lexsort((res.neuron_right, dist, res.neuron_left))
-    left = res.neuron_left[order]
-    bounds = np.searchsorted(left, np.arange(n_query + 1))
-    right, dist = res.neuron_right[order].tolist(), dist[order].tolist()
-    return [(right[a:b], dist[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
+    return (res.neuron_left[order].astype(np.int64), res.neuron_right[order].astype(np.int64),
+            np.asarray(dist, dtype=np.float64)[order])
+
+
+def dmatch_rows(query, train, dist, n_query: int, keep_empty: bool) -> list:
+    """One list of ``cv2.DMatch`` (imgIdx 0) per query ``0..n_query - 1`` from the entries
+    ``(query, train, dist)`` sorted by query (each row in the entries' order); the queries
+    without an entry give ``[]``, or no row unless ``keep_empty``. The DMatch objects are
+    made in one bulk call (:func:`dmatches`)."""
+    flat = dmatches(query, train, dist)
+    bounds = np.searchsorted(np.asarray(query), np.arange(n_query + 1))
+    return [list(flat[a:b]) for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist())
+            if keep_empty or b > a]
+
+
+def knn_rows(res: NetworkResult, n_query: int, n_train: int, k: int, mask=None,
+             compact: bool = False) -> list:
+    """``knnMatch``'s rows: each query's first ``k`` candidates by increasing distance
+    (:func:`ranked_neurons`), then, unless ``compact``, as many of the lowest train indices
+    not among them (allowed by ``mask``, an ``(n_query, n_train)`` array, when given) at
+    distance 1.0 as make ``k`` (fewer when the train set runs out); with ``compact`` the
+    queries without a candidate give no row.
+
+    Built with array operations: the candidates' ranks within their query, and for the
+    queries short of ``k``, their first ``k`` allowed train indices (at most ``k - 1`` of
+    which are candidates), of which the ones not taken are the padding."""
+    left, right, dist = ranked_neurons(res)
+    start = np.searchsorted(left, np.arange(n_query + 1))
+    rank = np.arange(len(left), dtype=np.int64) - start[left]
+    top = rank < k
+    left, right, dist, rank = left[top], right[top], dist[top], rank[top]
+    count = np.minimum(np.diff(start), k)
+    short = np.flatnonzero(count < k) if not compact else np.zeros(0, np.int64)
+    width = int(min(k, n_train))
+    if len(short) == 0 or width == 0:
+        return dmatch_rows(left, right, dist, n_query, keep_empty=not compact)
+    # the first `width` allowed train indices of each short row (n_train where fewer)
+    if mask is None:
+        pool = np.broadcast_to(np.arange(width, dtype=np.int64), (len(short), width)).copy()
+    else:
+        allowed = np.asarray(mask)[short] != 0
+        pool = np.full((len(short), width), n_train, dtype=np.int64)
+        for r, row in enumerate(allowed):
+            first = np.flatnonzero(row)[:width]
+            pool[r, :len(first)] = first
+    # their candidates (fewer than k each) are taken: marked n_train, sorted to the end
+    row_of = np.full(n_query, -1, dtype=np.int64)
+    row_of[short] = np.arange(len(short))
+    mine = row_of[left] >= 0
+    taken = np.full((len(short), width), -1, dtype=np.int64)
+    taken[row_of[left[mine]], rank[mine]] = right[mine]
+    for j in range(width):
+        pool[pool == taken[:, j:j + 1]] = n_train
+    pool.sort(axis=1)
+    need = k - count[short]
+    pick = (np.arange(width)[None, :] < need[:, None]) & (pool < n_train)
+    rows, cols = np.nonzero(pick)
+    query = np.concatenate((left, short[rows]))
+    order = np.lexsort((np.concatenate((rank, count[short][rows] + cols)), query))
+    return dmatch_rows(query[order], np.concatenate((right, pool[rows, cols]))[order],
+                       np.concatenate((dist, np.ones(len(rows))))[order], n_query,
+                       keep_empty=True)
+
+
+def radius_rows(res: NetworkResult, n_query: int, max_distance: float,
+                compact: bool = False) -> list:
+    """``radiusMatch``'s rows: each query's candidates with distance at most
+    ``max_distance``, by increasing distance (:func:`ranked_neurons`); with ``compact`` the
+    queries without one give no row."""
+    left, right, dist = ranked_neurons(res)
+    near = dist <= max_distance
+    return dmatch_rows(left[near], right[near], dist[near], n_query, keep_empty=not compact)
 
 
 class HopfieldMatcher(Configurable):
@@ -383,24 +462,8 @@ class HopfieldMatcher(Configurable):
             raise InvalidTypeError("knnMatch() needs `k`, the number of matches per query")
         k = as_int(k, "k", lo=1)
         res, pair = self._run(queryDescriptors, trainDescriptors, mask)
-        n_train = len(pair.train_points)
-        ranked = ranked_candidates(res, len(pair.query_points))
-        out = []
-        for qi, (cands, dists) in enumerate(ranked):
-            if compactResult and not cands:
-                continue
-            row = [cv2.DMatch(qi, t, d) for t, d in zip(cands[:k], dists[:k])]
-            if len(row) < k and not compactResult:
-                taken = set(cands[:k])
-                allowed = (range(n_train) if mask is None
-                           else np.flatnonzero(np.asarray(mask)[qi]).tolist())
-                for t in allowed:
-                    if len(row) >= k:
-                        break
-                    if t not in taken:
-                        row.append(cv2.DMatch(qi, int(t), 1.0))
-            out.append(_in_image_zero(row))
-        return out
+        return knn_rows(res, len(pair.query_points), len(pair.train_points), k, mask,
+                        bool(compactResult))
 
     def radiusMatch(self, queryDescriptors, trainDescriptors=None,  # noqa: N802, N803
                     maxDistance=None, mask=None, compactResult=False):  # noqa: N803
@@ -418,12 +481,8 @@ class HopfieldMatcher(Configurable):
                 "`maxDistance` must be a number (distances lie in [0, 1]), got NaN"
             )
         res, pair = self._run(queryDescriptors, trainDescriptors, mask)
-        out = []
-        for qi, (cands, dists) in enumerate(ranked_candidates(res, len(pair.query_points))):
-            row = [cv2.DMatch(qi, t, d) for t, d in zip(cands, dists) if d <= maxDistance]
-            if row or not compactResult:
-                out.append(_in_image_zero(row))
-        return out
+        return radius_rows(res, len(pair.query_points), float(maxDistance),
+                           bool(compactResult))
 
     # -- energy and last result --------------------------------------------------------
     def getLastResult(self) -> NetworkResult | None:  # noqa: N802
