@@ -200,16 +200,40 @@ class LooksUnrectifiedError(Exception):
         self.evidence = evidence
 
 
-def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config,
-                        raise_unrectified: bool = False,
-                        rows_share: float | None = None) -> bool:
-    """Warn (:class:`~hopmatch.errors.UnrectifiedPairWarning`) when the network kept few
+def warn_about_pair(diagnosis, few_matches_check, q_pts, t_pts, *,
+                    kept: int | None = None) -> bool:
+    """The one warning about a matched pair: :func:`pair_diagnosis`'s ``diagnosis``
+    (``(message, category)`` or None), or else ``few_matches_check``
+    (:func:`warn_if_few_matches` with its pair bound, called with ``kept``). ``kept``: the
+    matches kept in the end when passes after the network added some (None: the
+    network's); the diagnosis then stands only while they are still few
+    (:func:`still_few`). Returns whether it warned."""
+    if diagnosis is not None and (kept is None or still_few(kept, q_pts, t_pts)):
+        warn(*diagnosis)
+        return True
+    return few_matches_check() if kept is None else few_matches_check(kept=kept)
+
+
+def still_few(kept: int, q_pts, t_pts) -> bool:
+    """Whether ``kept`` matches are few enough for :func:`pair_diagnosis`'s warning to
+    stand: below :data:`RECTIFICATION_SUSPICIOUS` of the smaller keypoint set. For a caller
+    whose later passes add matches (``match_stereo``'s guided pass): a pair whose network
+    kept few matches but whose final matches are many is two views of one scene on their
+    rows after all (an overexposed right view, say), and is not told otherwise."""
+    return kept < RECTIFICATION_SUSPICIOUS * min(len(q_pts), len(t_pts))
+
+
+def pair_diagnosis(n_matches, q_pts, t_pts, qd, td, fundamental, config,
+                   raise_unrectified: bool = False,
+                   rows_share: float | None = None) -> tuple[str, type] | None:
+    """``(message, category)`` of the warning about the pair, or None:
+    :class:`~hopmatch.errors.UnrectifiedPairWarning` when the network kept few
     matches (below :data:`RECTIFICATION_SUSPICIOUS` of the keypoints) and the clearest
     look-alikes of the left points lie off their rows (:func:`rectification_evidence`), or
     (:class:`NotStereoPairWarning`) when almost no left point has a look-alike anywhere
     near its row (:func:`stereo_pair_evidence`): the images are not two views of one
-    scene. One warning at most, and True when it was given; rectified pairs with many
-    matches do not pay for either check.
+    scene. One warning at most; rectified pairs with many matches do not pay for either
+    check.
 
     With ``raise_unrectified`` (``match_stereo(..., rectified=None)``) a pair without
     ``fundamental`` that kept fewer matches than :data:`RECTIFICATION_SUSPICIOUS` of the
@@ -230,7 +254,7 @@ def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config,
                               and rows_share is not None
                               and rows_share < UNRECTIFIED_ROWS_SHARE)))
     if not (few or may_raise) or not len(qd) or not len(td):
-        return False
+        return None
     off_rows = None
     if fundamental is None and few:
         ev = rectification_evidence(q_pts, t_pts, qd, td, config.min_disparity,
@@ -253,13 +277,12 @@ def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config,
                         f"max(1, max_vertical={config.max_vertical:g}) px of their row (a "
                         f"median {wide[0]:.1f} px off it)")
     if off_rows is not None and not raise_unrectified:
-        warn(f"the pair does not look rectified: {off_rows}, so few true matches can be "
-             "found; rectify the pair (hopmatch.stereo.rectify), call "
-             "setFundamentalMatrix(F), or let match_stereo estimate its geometry "
-             "(rectified=False)", UnrectifiedPairWarning)
-        return True
+        return (f"the pair does not look rectified: {off_rows}, so few true matches can be "
+                "found; rectify the pair (hopmatch.stereo.rectify), call "
+                "setFundamentalMatrix(F), or let match_stereo estimate its geometry "
+                "(rectified=False)", UnrectifiedPairWarning)
     if off_rows is None and not few:
-        return False
+        return None
     ratio = contrast_ratio(qd, td)
     gain = "" if ratio is None or 1 / FEW_MATCHES_CONTRAST <= ratio <= FEW_MATCHES_CONTRAST \
         else (f" (the right image's windows have {ratio:.3g} times the contrast of the left "
@@ -268,19 +291,18 @@ def warn_if_unrectified(n_matches, q_pts, t_pts, qd, td, fundamental, config,
     st = stereo_pair_evidence(q_pts, t_pts, qd, td, config.min_disparity,
                               config.max_disparity)
     if st is not None and st[0] < STEREO_MIN_CLEAR and st[1] < STEREO_MIN_CLOSE:
-        warn(f"the pair does not look like a stereo pair: of {st[2]} sampled left points "
-             f"{st[1]:.0%} have a look-alike within {STEREO_WINDOW:g} px of their row in the "
-             f"right image ({st[0]:.0%} a clear one; two views of one scene give 25 % or "
-             f"more), and {n_matches} matches were found; check that the two images show "
-             "the same scene from side by side, left image first. For two such views that "
-             "are not rectified, rectify them (hopmatch.stereo.rectify or "
-             "rectify_uncalibrated) or give their fundamental matrix (setFundamentalMatrix(F)"
-             "); to find an object in a scene (find_obj.py), use SIFT or ORB with "
-             f"cv2.findHomography instead{gain}", NotStereoPairWarning)
-        return True
+        return (f"the pair does not look like a stereo pair: of {st[2]} sampled left points "
+                f"{st[1]:.0%} have a look-alike within {STEREO_WINDOW:g} px of their row in "
+                f"the right image ({st[0]:.0%} a clear one; two views of one scene give 25 % "
+                f"or more), and {n_matches} matches were found; check that the two images "
+                "show the same scene from side by side, left image first. For two such views "
+                "that are not rectified, rectify them (hopmatch.stereo.rectify or "
+                "rectify_uncalibrated) or give their fundamental matrix "
+                "(setFundamentalMatrix(F)); to find an object in a scene (find_obj.py), use "
+                f"SIFT or ORB with cv2.findHomography instead{gain}", NotStereoPairWarning)
     if off_rows is not None:  # raise_unrectified: two views of one scene, off their rows
         raise LooksUnrectifiedError(off_rows)
-    return False
+    return None
 
 
 def contrast_ratio(qd, td, look_alikes=None) -> float | None:

@@ -39,7 +39,7 @@ from .candidates import (  # noqa: E402, F401
     right_band_index,
     vertical_offsets,
 )
-from .diagnostics import warn_geometry, warn_if_few_matches, warn_if_unrectified
+from .diagnostics import pair_diagnosis, warn_about_pair, warn_geometry, warn_if_few_matches
 from .disambiguate import disambiguate, vertically_consistent
 from .disparity_range import (
     resolve_disparity_range,
@@ -257,8 +257,10 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     ``raise_unrectified``: raise :class:`~.diagnostics.LooksUnrectifiedError` where the
     rectification check would warn. ``few_matches_later``: a list, for a caller whose
     later passes add matches (:func:`~.stereo_match.match_detected`): when the network
-    kept some matches, the few-matches check is appended to it (a callable, to be called
-    with ``kept=`` the final number of matches) instead of being made here."""
+    kept some matches, the warning about the pair is appended to it (a callable, to be
+    called with ``kept=`` the final number of matches: :func:`~.diagnostics.
+    warn_about_pair`, the rectification or stereo-pair diagnosis while they are still
+    few, else the few-matches check) instead of being given here."""
     q_pts, t_pts = pair.query_points, pair.train_points
     if descriptors_checked:
         qd, td = query_descriptors, train_descriptors
@@ -302,14 +304,16 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
         result = dataclasses.replace(result, row_prior=prior)
     # one warning for one cause: a pair diagnosed as not rectified or not a stereo pair
     # also defeats the range search, and the diagnosis says more than the others would
-    if not warn_if_unrectified(len(result.query_idx), q_pts, t_pts, qd, td, fundamental,
-                               config, raise_unrectified, rows_share):
-        check = functools.partial(warn_if_few_matches, result, q_pts, t_pts, qd, td, config,
-                                  range_found=found.source != "fallback")
-        if few_matches_later is not None and len(result.query_idx):
-            few_matches_later.append(check)
-        elif not check():
-            warn_fallback(found, len(result.query_idx))
+    diagnosis = pair_diagnosis(len(result.query_idx), q_pts, t_pts, qd, td, fundamental,
+                               config, raise_unrectified, rows_share)
+    check = functools.partial(warn_if_few_matches, result, q_pts, t_pts, qd, td, config,
+                              range_found=found.source != "fallback")
+    if few_matches_later is not None and len(result.query_idx):
+        # the caller's later passes may add matches: the warning waits for the final count
+        few_matches_later.append(functools.partial(warn_about_pair, diagnosis, check, q_pts,
+                                                   t_pts))
+    elif not warn_about_pair(diagnosis, check, q_pts, t_pts):
+        warn_fallback(found, len(result.query_idx))
     return result
 
 

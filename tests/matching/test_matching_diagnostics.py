@@ -187,6 +187,53 @@ def test_raw_chessboard_photos_are_a_stereo_pair(shared_data):
         assert NotStereoPairWarning not in [w.category for w in caught]
 
 
+def test_the_pair_warning_waits_for_the_final_matches():
+    """warn_about_pair: the network's diagnosis stands only while the final matches are
+    still few (below RECTIFICATION_SUSPICIOUS of the keypoints); else the few-matches
+    check is made, with the final count."""
+    from hopmatch.matching.diagnostics import (
+        RECTIFICATION_SUSPICIOUS,
+        NotStereoPairWarning,
+        warn_about_pair,
+    )
+
+    pts = np.zeros((1000, 2), np.float32)
+    few = int(np.ceil(RECTIFICATION_SUSPICIOUS * len(pts)))  # the first count not few
+    diagnosis = ("the pair does not look like a stereo pair", NotStereoPairWarning)
+    calls = []
+
+    def check(kept=None):
+        calls.append(kept)
+        return False
+
+    for kept, warns, checked in ((few - 1, True, []), (few, False, [few]),
+                                 (None, True, []), (5000, False, [5000])):
+        calls.clear()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert warn_about_pair(diagnosis, check, pts, pts, kept=kept) is warns
+        assert [w.category for w in caught] == ([NotStereoPairWarning] if warns else [])
+        assert calls == checked
+    calls.clear()
+    assert warn_about_pair(None, check, pts, pts) is False and calls == [None]
+
+
+@pytest.mark.shared_data
+def test_an_overexposed_view_matched_by_the_guided_pass_is_a_stereo_pair(shared_data):
+    """KITTI #70 with the right view brightened (gamma 0.5, gain 1.3, clipped): the
+    network keeps few matches, the guided pass thousands; no warning calls the pair
+    unrelated (one did, from the network's count, before 2026-12-05)."""
+    from hopmatch import datasets
+    from hopmatch.matching.diagnostics import NotStereoPairWarning
+
+    scene = datasets.load("kitti2012/000070", shared_data)
+    right = np.clip(255.0 * (scene.right / 255.0) ** 0.5 * 1.3, 0, 255).astype(np.uint8)
+    res, caught = _caught(lambda: hopmatch.match_stereo(scene.left, right))
+    n = min(len(res.points_left), len(res.points_right))
+    assert len(res.network.query_idx) < 0.03 * n < len(res.query_idx)
+    assert NotStereoPairWarning not in [w.category for w in caught]
+
+
 # -- issue 20: no or almost no matches is warned about, with its likely cause ----------------
 
 
