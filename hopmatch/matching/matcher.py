@@ -46,7 +46,7 @@ from .params import MATCHER_PARAMS, PRESETS, MatcherConfig, check_disparity_orde
 from .similarity import match_distance
 
 __all__ = ["HopfieldMatcher", "dmatch_rows", "dmatches", "hopfield_match", "knn_rows",
-           "radius_rows", "ranked_candidates", "ranked_neurons"]
+           "radius_rows", "ranked_neurons"]
 
 
 def _is_number(value) -> bool:
@@ -65,25 +65,11 @@ def dmatches(query_idx, train_idx, distances) -> tuple:
     Built in bulk: ``cv2.DMatch`` called from C (``map``) on flat lists, about half the
     time of a generator that calls it per match.
     """
-    return _in_image_zero(tuple(map(cv2.DMatch, np.asarray(query_idx).tolist(),
-                                    np.asarray(train_idx).tolist(),
-                                    np.asarray(distances).tolist())))
-
-
-def _in_image_zero(matches):
-    """``matches`` (cv2.DMatch objects) with ``imgIdx`` set to 0; returns them."""
+    matches = tuple(map(cv2.DMatch, np.asarray(query_idx).tolist(),
+                        np.asarray(train_idx).tolist(), np.asarray(distances).tolist()))
     for m in matches:
         m.imgIdx = 0
     return matches
-
-
-def ranked_candidates(res: NetworkResult, n_query: int) -> list[tuple[list, list]]:
-    """Each query's candidates (neurons) as ``(train indices, distances)``, by increasing
-    distance (:func:`~hopmatch.matching.similarity.match_distance`), ties by train index."""
-    left, right, dist = ranked_neurons(res)
-    bounds = np.searchsorted(left, np.arange(n_query + 1))
-    right, dist = right.tolist(), dist.tolist()
-    return [(right[a:b], dist[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
 def ranked_neurons(res: NetworkResult):
