@@ -11,7 +11,7 @@ from ..errors import (
     DisparityRangeWarning,
     FewMatchesWarning,
     ImageSizeWarning,
-    NotStereoPairWarning,  # noqa: F401 (re-exported: its home was here)
+    NotStereoPairWarning,
     UnrectifiedPairWarning,
 )
 from .candidates import best_two_look_alikes, candidate_pairs, clear_best_look_alikes
@@ -70,6 +70,12 @@ FEW_MATCHES_FRACTION = 0.01
 FEW_MATCHES_CONTRAST = 1.5
 #: Rows (at least) of the band in which the few-matches gain test looks for look-alikes.
 FEW_MATCHES_BAND = 4.0
+#: :func:`exposure_note`: a view is called clipped when at least this share of its pixels
+#: sit at its brightest (or darkest) level and that share exceeds the other view's by
+#: at least :data:`CLIPPED_LEAD`; the views are sampled every :data:`CLIPPED_STRIDE` px.
+CLIPPED_SHARE = 0.10
+CLIPPED_LEAD = 0.08
+CLIPPED_STRIDE = 4
 
 
 def clear_look_alikes(q_pts, t_pts, qd, td, min_disparity, max_disparity, band,
@@ -201,17 +207,49 @@ class LooksUnrectifiedError(Exception):
 
 
 def warn_about_pair(diagnosis, few_matches_check, q_pts, t_pts, *,
-                    kept: int | None = None) -> bool:
+                    kept: int | None = None, exposure: str = "") -> bool:
     """The one warning about a matched pair: :func:`pair_diagnosis`'s ``diagnosis``
     (``(message, category)`` or None), or else ``few_matches_check``
-    (:func:`warn_if_few_matches` with its pair bound, called with ``kept``). ``kept``: the
-    matches kept in the end when passes after the network added some (None: the
-    network's); the diagnosis then stands only while they are still few
-    (:func:`still_few`). Returns whether it warned."""
-    if diagnosis is not None and (kept is None or still_few(kept, q_pts, t_pts)):
+    (:func:`warn_if_few_matches` with its pair bound, called with ``kept`` and
+    ``exposure``). ``kept``: the matches kept in the end when passes after the network
+    added some (None: the network's); the diagnosis then stands only while they are still
+    few (:func:`still_few`). ``exposure``: :func:`exposure_note` of the pair's images, for
+    a caller that has them; when it says a view clips, a diagnosis that the images are no
+    stereo pair gives way to the few-matches check, which names the clipping as the cause
+    (an overexposed view has few look-alikes near its rows either). Returns whether it
+    warned."""
+    if (diagnosis is not None and (kept is None or still_few(kept, q_pts, t_pts))
+            and not (exposure and issubclass(diagnosis[1], NotStereoPairWarning))):
         warn(*diagnosis)
         return True
-    return few_matches_check() if kept is None else few_matches_check(kept=kept)
+    return few_matches_check(kept=kept, exposure=exposure)
+
+
+def exposure_note(gray_left: np.ndarray, gray_right: np.ndarray) -> str:
+    """Words on a view that clips: at least :data:`CLIPPED_SHARE` of its pixels at its
+    brightest level (or its darkest), :data:`CLIPPED_LEAD` more than the other view's
+    share at that view's own extreme (both views of a white sky clip alike), or "" (also
+    for a view of one level: no keypoint, which :func:`no_keypoints_cause` explains).
+    Shares are read every :data:`CLIPPED_STRIDE` pixels of each axis."""
+    shares = []
+    for gray in (gray_left, gray_right):
+        g = np.asarray(gray)[::CLIPPED_STRIDE, ::CLIPPED_STRIDE]
+        if g.size == 0 or not np.isfinite(g).all():
+            return ""
+        lo, hi = g.min(), g.max()
+        if lo == hi:
+            return ""
+        shares.append((float(np.mean(g == hi)), float(np.mean(g == lo))))
+    for k, (name, other) in enumerate((("left", "right"), ("right", "left"))):
+        for end, word, fix in ((0, "brightest", "overexposed"), (1, "darkest",
+                                                                 "underexposed")):
+            mine, theirs = shares[k][end], shares[1 - k][end]
+            if mine >= CLIPPED_SHARE and mine - theirs >= CLIPPED_LEAD:
+                return (f"the {name} image has {mine:.0%} of its pixels at its {word} level "
+                        f"(the {other} image {theirs:.0%}): it looks {fix}, and where it "
+                        "clips no texture is left to match; give both views one exposure "
+                        "(or a lower gain) if you can")
+    return ""
 
 
 def still_few(kept: int, q_pts, t_pts) -> bool:
@@ -367,14 +405,16 @@ def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None) -> str:
 
 
 def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
-                        range_found: bool = True, kept: int | None = None) -> bool:
+                        range_found: bool = True, kept: int | None = None,
+                        exposure: str = "") -> bool:
     """Warn (:class:`~hopmatch.errors.FewMatchesWarning`) when a pair of at least
     :data:`FEW_MATCHES_MIN_POINTS` keypoints a side kept fewer than
     ``max(FEW_MATCHES_FLOOR, FEW_MATCHES_FRACTION * keypoints)`` matches, saying the
     likely cause (:func:`few_matches_cause`, from the network's ``result``), and, when
     ``range_found`` is False, that the disparity range could not be found and the whole
     fallback range was searched. ``kept``: the matches kept in the end, when passes after
-    the network added some (None: the network's). Returns whether it warned."""
+    the network added some (None: the network's). ``exposure``: :func:`exposure_note`'s
+    words, given as the cause when not empty. Returns whether it warned."""
     n = min(len(q_pts), len(t_pts))
     by_network = len(result.query_idx)
     kept = by_network if kept is None else kept
@@ -384,9 +424,9 @@ def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
         f" (max_disparity=None: the coarse pass found no range, so the whole range "
         f"[{config.min_disparity:g}, {config.max_disparity:g}] was searched)")
     network = "" if kept == by_network else f" ({by_network} from the network)"
+    cause = exposure or few_matches_cause(result, qd, td, config, q_pts, t_pts)
     warn(f"only {kept} matches{network} for {len(q_pts)} left and {len(t_pts)} right "
-         f"keypoints{searched}: {few_matches_cause(result, qd, td, config, q_pts, t_pts)}",
-         FewMatchesWarning)
+         f"keypoints{searched}: {cause}", FewMatchesWarning)
     return True
 
 

@@ -256,11 +256,14 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     holds the parameters used. ``fundamental``: None or a checked 3 x 3 float64 matrix.
     ``raise_unrectified``: raise :class:`~.diagnostics.LooksUnrectifiedError` where the
     rectification check would warn. ``few_matches_later``: a list, for a caller whose
-    later passes add matches (:func:`~.stereo_match.match_detected`): when the network
-    kept some matches, the warning about the pair is appended to it (a callable, to be
-    called with ``kept=`` the final number of matches: :func:`~.diagnostics.
-    warn_about_pair`, the rectification or stereo-pair diagnosis while they are still
-    few, else the few-matches check) instead of being given here."""
+    later passes add matches (:func:`~.stereo_match.match_detected`) or that may match
+    the pair again (a second match through a tone map): the warning about the pair is
+    appended to it (a callable, to be called with ``kept=`` the final number of matches:
+    :func:`~.diagnostics.warn_about_pair`, the rectification or stereo-pair diagnosis
+    while they are still few, else the few-matches check; and, when none of them warned
+    and nothing was kept, the range fallback's warning; ``exposure=`` the caller's
+    :func:`~.diagnostics.exposure_note`, when it has the images) instead of being given
+    here."""
     q_pts, t_pts = pair.query_points, pair.train_points
     if descriptors_checked:
         qd, td = query_descriptors, train_descriptors
@@ -308,12 +311,17 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
                                config, raise_unrectified, rows_share)
     check = functools.partial(warn_if_few_matches, result, q_pts, t_pts, qd, td, config,
                               range_found=found.source != "fallback")
-    if few_matches_later is not None and len(result.query_idx):
-        # the caller's later passes may add matches: the warning waits for the final count
-        few_matches_later.append(functools.partial(warn_about_pair, diagnosis, check, q_pts,
-                                                   t_pts))
-    elif not warn_about_pair(diagnosis, check, q_pts, t_pts):
-        warn_fallback(found, len(result.query_idx))
+    def warn_once(kept: int | None = None, exposure: str = "") -> None:
+        if not warn_about_pair(diagnosis, check, q_pts, t_pts, kept=kept,
+                               exposure=exposure):
+            warn_fallback(found, len(result.query_idx) if kept is None else kept)
+
+    if few_matches_later is not None:
+        # the caller's later passes, or a second match, may add matches: the warning
+        # waits for the final count
+        few_matches_later.append(warn_once)
+    else:
+        warn_once()
     return result
 
 

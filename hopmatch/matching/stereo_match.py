@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 
 import numpy as np
@@ -21,7 +22,7 @@ from ..feature.gradient import normalised_intensity
 from ..feature.sharpness import equalise_sharpness
 from . import guided, halves
 from .confidence import confidence_distances, fields_of_distances
-from .diagnostics import LooksUnrectifiedError, warn_if_no_keypoints
+from .diagnostics import LooksUnrectifiedError, exposure_note, warn_if_no_keypoints
 from .geometry import GeometryWarning, transform_points
 from .guided import guided_pass, guided_rounds
 from .guided_results import GreyFallback, GuidedMatches
@@ -144,7 +145,8 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         sharper view is blurred towards the other (``sharpness_ratio``;
         ``result.sharpness``), and after a first match whose grey levels differ by a curve
         or a varying gain (``tone_tolerance``, ``gain_field_tolerance``) the right view is
-        mapped through them and the pair matched again (``result.tone_map``).
+        mapped through them and the pair matched again (``result.tone_map``; a first
+        match too poor to read the map off has it read off the two views' histograms).
         ``preset="paper"`` turns all four off.
 
     Examples
@@ -210,10 +212,12 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                                                   threads)
         try:
             keypoint_size = float(detector.getWindowSize())
+            first_warnings = []
             result = match_detected(found_l, found_r, config, keypoint_size=keypoint_size,
                                     fundamental=fundamental, record_energy=record_energy,
                                     timings={"detect_left": t_l, "detect_right": t_r},
-                                    threads=threads, raise_unrectified=may_switch)
+                                    threads=threads, raise_unrectified=may_switch,
+                                    warnings_later=first_warnings)
         except LooksUnrectifiedError as found:
             warn(f"the pair does not look rectified: {found.evidence}, so it was matched as "
                  "an unrectified pair, its epipolar geometry estimated from the images "
@@ -224,17 +228,21 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
 
         def rematch(gray_right):  # the right view mapped through the pair's tone map
             found, t = detect(gray_right, mask_right, "right")
+            later = []
             again = match_detected(found_l, found, config, keypoint_size=keypoint_size,
                                    fundamental=fundamental, record_energy=record_energy,
                                    timings={"detect_left": t_l, "detect_right": t_r + t},
-                                   threads=threads)
-            return len(again.query_idx), (again, found)
+                                   threads=threads, warnings_later=later)
+            return len(again.query_idx), (again, found, later)
 
         tone, second = rematch_through_map(found_l[4], found_r[4], result.matched_left,
                                            result.matched_right, config.tone_tolerance,
                                            config.gain_field_tolerance, rematch)
+        exposure = exposure_note(found_l[4], found_r[4])  # the views as given
         if second is not None:
-            result, found_r = second
+            result, found_r, first_warnings = second
+        for give in first_warnings:  # those of the match kept
+            give(exposure=exposure)
         result.tone_map = tone
     # after match_detected, whose checks of the pair (two heights...) come first
     (pts_l, *_, gray_l), (pts_r, *_, gray_r) = found_l, found_r
@@ -248,7 +256,8 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
 def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
                    fundamental=None, record_energy: bool = False,
                    timings: dict | None = None, threads: int | None = None,
-                   raise_unrectified: bool = False) -> StereoMatchResult:
+                   raise_unrectified: bool = False,
+                   warnings_later: list | None = None) -> StereoMatchResult:
     """The matching half of :func:`match_stereo`, on what detection gave for each image.
 
     ``left`` and ``right`` are ``(points, responses, descriptors, gradient, grey)`` as
@@ -258,7 +267,11 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     network, then (rectified pairs of one size) the guided pass and the refinement, these
     two in up to ``threads`` threads (None: :func:`hopmatch._threads.current_threads`).
     ``raise_unrectified``: raise :class:`~.diagnostics.LooksUnrectifiedError` where the
-    rectification check would warn (:func:`match_pair`).
+    rectification check would warn (:func:`match_pair`). ``warnings_later``: a list, for
+    a caller that may keep another match instead (:func:`match_stereo`'s second match
+    through a tone map): the warnings about the result (few matches, not rectified, not a
+    stereo pair) are appended to it as callables instead of being given (each called with
+    no argument, or with ``exposure=`` :func:`~.diagnostics.exposure_note`'s words).
     """
     pts_l, resp_l, desc_l, g_l, gray_l = left
     pts_r, resp_r, desc_r, g_r, gray_r = right
@@ -296,8 +309,13 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     if fundamental is None and shape_l == shape_r and len(net.query_idx):
         result = beyond_network(result, (desc_l, desc_r), (g_l, g_r), (gray_l, gray_r),
                                 net.config, threads=threads)
-    for check in few_matches_check:
-        check(kept=len(result.query_idx))
+    pending = [functools.partial(check, kept=len(result.query_idx))
+               for check in few_matches_check]
+    if warnings_later is not None:
+        warnings_later.extend(pending)
+    else:
+        for check in pending:
+            check()
     return result
 
 

@@ -41,6 +41,9 @@ TRIM = 3.0
 #: The right view's grey levels between these percentiles of the matches' span the
 #: curve's unit interval; beyond it the curve is continued by its end slopes.
 SPAN_PERCENTILES = (1.0, 99.0)
+#: Quantiles (evenly spaced, 0 to 100 %) of each view that :func:`histogram_tone_map`
+#: pairs.
+HISTOGRAM_QUANTILES = 101
 #: Matches whose grey levels (either end, or the curve's value) lie below this fraction of
 #: the span above its low end, or below 0, do not inform the gain (a ratio of two dark
 #: levels is mostly noise).
@@ -55,7 +58,10 @@ class ToneMap:
     Attributes
     ----------
     coefficients : (DEGREE + 1,) float64 ndarray
-        The curve, a cubic (``np.polyval`` order) of ``t = (r - low) / (high - low)``.
+        The curve, a cubic (``np.polyval`` order) of ``t = (r - low) / (high - low)``; for
+        a map read off the histograms (``table`` set), the straight line through the
+        table by least squares, of the right level ``r`` itself (what ``nonlinearity`` is
+        measured against; the curve is the table's).
     low, high : float
         The right grey levels mapped to ``t = 0`` and ``t = 1``.
     field : (6,) float64 ndarray
@@ -74,7 +80,13 @@ class ToneMap:
         ``field_bounds[1] - field_bounds[0]``: how much the log gain varies across the
         matches (0 for one gain everywhere; 0.4 is a gain that varies by half).
     n_matches : int
-        Matches the last fit kept.
+        Matches the last fit kept (0 for a map read off the histograms:
+        :func:`histogram_tone_map`).
+    table : (2, K) float64 ndarray or None
+        For a map read off the histograms (:func:`histogram_tone_map`): right grey levels
+        (increasing) and the left levels they map to; the curve is then the piecewise
+        linear one through them (continued by its end segments' slopes), not the cubic
+        (None: the cubic).
     used : bool
         Whether the matches returned are those of the right view mapped through this map:
         it called for a second match (:func:`needs_rematch`) and that match found more
@@ -90,11 +102,14 @@ class ToneMap:
     nonlinearity: float
     field_range: float
     n_matches: int
+    table: np.ndarray | None = None
     used: bool = False
 
     def curve(self, levels: np.ndarray) -> np.ndarray:
         """The curve at right grey ``levels`` (float64); outside ``[low, high]`` continued
         by its slope at that end."""
+        if self.table is not None:
+            return piecewise_linear(np.asarray(levels, dtype=np.float64), *self.table)
         t = (np.asarray(levels, dtype=np.float64) - self.low) / (self.high - self.low)
         slope = np.polyder(self.coefficients)
         inside = np.polyval(self.coefficients, np.clip(t, 0.0, 1.0))
@@ -197,6 +212,49 @@ def tone_map(gray_left: np.ndarray, gray_right: np.ndarray, points_left: np.ndar
                    field_range=bounds[1] - bounds[0], n_matches=int(keep.sum()))
 
 
+def piecewise_linear(x: np.ndarray, knots: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """The piecewise linear function through ``(knots[i], values[i])`` (``knots``
+    increasing, at least two) at ``x``, continued beyond the ends by the end segments'
+    slopes."""
+    inside = np.interp(x, knots, values)
+    first = (values[1] - values[0]) / (knots[1] - knots[0])
+    last = (values[-1] - values[-2]) / (knots[-1] - knots[-2])
+    return (inside + np.minimum(x - knots[0], 0.0) * first
+            + np.maximum(x - knots[-1], 0.0) * last)
+
+
+def histogram_tone_map(gray_left: np.ndarray, gray_right: np.ndarray) -> ToneMap | None:
+    """The map from the right view's grey levels onto the left view's that gives the right
+    view the left view's histogram: the piecewise linear curve through the pairs of the
+    two views' :data:`HISTOGRAM_QUANTILES` quantiles (quantiles that share a right level,
+    a clipped pile, map it to the mean of their left levels), no gain field, ``n_matches``
+    0. For a first match too poor to read :func:`tone_map` off (fewer than
+    :data:`MIN_MATCHES` pairs): two views of one scene show different parts of it, so a
+    histogram is a rough map (docs/method.md section 4.7), but where a response curve or
+    a clipped exposure left the first match next to nothing it is the map there is.
+    ``nonlinearity`` is measured as :func:`tone_map`'s, over the right view's span. None
+    for a flat view."""
+    q = np.linspace(0.0, 100.0, HISTOGRAM_QUANTILES)
+    left = np.percentile(np.asarray(gray_left, dtype=np.float64), q)
+    right, group = np.unique(np.percentile(np.asarray(gray_right, dtype=np.float64), q),
+                             return_inverse=True)
+    left = np.bincount(group, weights=left) / np.bincount(group)
+    if len(right) < 2 or not left[-1] > left[0]:
+        return None
+    left = np.maximum.accumulate(left)  # increasing (it is, up to rounding)
+    grid = np.linspace(right[0], right[-1], 101)
+    curve = piecewise_linear(grid, right, left)
+    line = np.polyfit(right, left, 1)
+    if not line[0] > 0:
+        return None
+    rise = line[0] * (right[-1] - right[0])
+    return ToneMap(coefficients=line, low=float(right[0]), high=float(right[-1]),
+                   field=np.zeros(6), shape=tuple(np.shape(gray_right)[:2]),
+                   field_bounds=(0.0, 0.0),
+                   nonlinearity=float(np.abs(curve - np.polyval(line, grid)).max() / rise),
+                   field_range=0.0, n_matches=0, table=np.stack((right, left)))
+
+
 def needs_rematch(found: ToneMap, tone_tolerance: float | None,
                   field_tolerance: float | None) -> bool:
     """Whether ``found``'s curve departs from a line by more than ``tone_tolerance`` or its
@@ -220,10 +278,14 @@ def rematch_through_map(gray_left: np.ndarray, gray_right: np.ndarray,
     keeps of it. ``second`` is returned (and the map's ``used`` set) only when that match
     has more pairs than the first (``len(matched_left)``): a map read off a first match
     with many wrong pairs can be wrong itself, and the count keeps such a second match
-    from replacing a better first."""
+    from replacing a better first. A first match of fewer than :data:`MIN_MATCHES` pairs
+    has no map read off it; with ``tone_tolerance`` set, the map is then read off the two
+    views' histograms (:func:`histogram_tone_map`) and called for under the same rule."""
     if tone_tolerance is None and field_tolerance is None:
         return None, None
     found = tone_map(gray_left, gray_right, matched_left, matched_right)
+    if found is None and len(matched_left) < MIN_MATCHES and tone_tolerance is not None:
+        found = histogram_tone_map(gray_left, gray_right)
     if found is None or not needs_rematch(found, tone_tolerance, field_tolerance):
         return found, None
     pairs, second = rematch(found.apply(gray_right))

@@ -202,7 +202,7 @@ def test_the_pair_warning_waits_for_the_final_matches():
     diagnosis = ("the pair does not look like a stereo pair", NotStereoPairWarning)
     calls = []
 
-    def check(kept=None):
+    def check(kept=None, exposure=""):
         calls.append(kept)
         return False
 
@@ -216,6 +216,54 @@ def test_the_pair_warning_waits_for_the_final_matches():
         assert calls == checked
     calls.clear()
     assert warn_about_pair(None, check, pts, pts) is False and calls == [None]
+
+
+def test_a_clipped_view_is_not_called_an_unrelated_pair():
+    """warn_about_pair with an exposure note: a not-a-stereo-pair diagnosis gives way to
+    the few-matches check, which gets the note as its cause; a rectification diagnosis
+    still stands."""
+    from hopmatch.errors import UnrectifiedPairWarning
+    from hopmatch.matching.diagnostics import NotStereoPairWarning, warn_about_pair
+
+    pts = np.zeros((1000, 2), np.float32)
+    calls = []
+
+    def check(kept=None, exposure=""):
+        calls.append((kept, exposure))
+        return True
+
+    for category, warned, checked in ((NotStereoPairWarning, [], [(3, "it clips")]),
+                                      (UnrectifiedPairWarning, [UnrectifiedPairWarning], [])):
+        calls.clear()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert warn_about_pair(("words", category), check, pts, pts, kept=3,
+                                   exposure="it clips")
+        assert [w.category for w in caught] == warned and calls == checked
+
+
+def test_the_exposure_note_names_the_view_that_clips():
+    from hopmatch.matching.diagnostics import CLIPPED_SHARE, exposure_note
+
+    rng = np.random.default_rng(0)
+    left = rng.integers(0, 200, (120, 160)).astype(np.uint8)
+    bright = left.copy()
+    bright[:, : int(160 * (CLIPPED_SHARE + 0.1))] = 255
+    note = exposure_note(left, bright)
+    assert note.startswith("the right image") and "brightest" in note
+    assert "overexposed" in note
+    dark = left.copy()
+    dark[:60] = 0
+    assert exposure_note(dark, left).startswith("the left image")
+    assert "darkest" in exposure_note(dark, left)
+    # both views clip alike (a white sky in each), a view of one level, or neither clips
+    assert exposure_note(bright, bright) == ""
+    assert exposure_note(np.full_like(left, 7), bright) == ""
+    assert exposure_note(left, left) == ""
+    # a small clipped area is no cause
+    little = left.copy()
+    little[:, :8] = 255
+    assert exposure_note(left, little) == ""
 
 
 @pytest.mark.shared_data

@@ -206,3 +206,58 @@ def test_negative_levels_get_a_curve_and_no_field():
     found = tone.tone_map(-300.0 + left, -300.0 + 0.5 * right, pl, pr)
     assert found is not None and found.field_range == 0.0
     assert np.isfinite(found.coefficients).all() and found.nonlinearity < 0.01
+
+
+def test_piecewise_linear_continues_the_end_segments():
+    knots, values = np.array([10.0, 20.0, 50.0]), np.array([0.0, 40.0, 70.0])
+    x = np.array([0.0, 10.0, 15.0, 20.0, 35.0, 50.0, 60.0])
+    expected = [-40.0, 0.0, 20.0, 40.0, 55.0, 70.0, 80.0]
+    np.testing.assert_allclose(tone.piecewise_linear(x, knots, values), expected)
+
+
+def test_the_histogram_map_gives_the_right_view_the_left_views_levels():
+    """A view brightened by 2.2 and clipped (59 % of its pixels at 255): the map read off
+    the two histograms undoes the gain below the clipped pile, has no gain field,
+    and is far from a line (the clipped pile); a flat view gives none."""
+    left = texture(240, 320, seed=11, sigma=0.9)
+    bright = np.clip(2.2 * left, 0, 255)
+    found = tone.histogram_tone_map(left, bright)
+    assert found.n_matches == 0 and found.table is not None and found.field_range == 0.0
+    assert found.nonlinearity > 0.04
+    assert 0.3 < (bright < 255).mean() < 0.6
+    # below the pile's knot (between the last knot under it and 255 the map is a guess)
+    below = bright <= found.table[0][-2]
+    assert below.mean() > 0.3
+    np.testing.assert_allclose(found.apply(bright)[below], left[below], atol=1.5)
+    assert tone.histogram_tone_map(left, np.full_like(left, 9.0)) is None
+    assert tone.histogram_tone_map(np.full_like(left, 9.0), left) is None
+
+
+def test_a_first_match_too_poor_for_a_map_is_matched_again_through_the_histograms():
+    """The right view brightened by 2.2 and clipped: the first match finds nothing, so
+    there is no map to read off it; the histograms' map finds thousands of matches, each
+    within 1 px of the true disparity, and no warning. Without tone_tolerance the pair
+    keeps no match and the warning says the right view is overexposed (it called the
+    views unrelated before 2026-12-06)."""
+    import warnings
+
+    h, w, d = 240, 320, 7
+    base = texture(h, w + d, seed=11, sigma=0.9)
+    left = np.clip(base[:, :w], 0, 255).astype(np.uint8)
+    right = np.clip(2.2 * base[:, d:], 0, 255).astype(np.uint8)
+    params = dict(max_disparity=16, sharpness_ratio=None)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = hopmatch.match_stereo(left, right, **params)
+    assert [str(c.message) for c in caught] == []
+    assert res.tone_map.n_matches == 0 and res.tone_map.used
+    assert len(res.query_idx) > 1000
+    disparity = res.matched_left[:, 0] - res.matched_right[:, 0]
+    assert np.abs(disparity - d).max() < 1.0
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        off = hopmatch.match_stereo(left, right, tone_tolerance=None, **params)
+    assert len(off.query_idx) == 0
+    messages = [str(c.message) for c in caught]
+    assert len(messages) == 1 and "right image" in messages[0]
+    assert "overexposed" in messages[0]
