@@ -233,7 +233,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                                    fundamental=fundamental, record_energy=record_energy,
                                    timings={"detect_left": t_l, "detect_right": t_r + t},
                                    threads=threads, warnings_later=later)
-            return len(again.query_idx), (again, found, later)
+            return again.matched_left, again.matched_right, (again, found, later)
 
         tone, second = rematch_through_map(found_l[4], found_r[4], result.matched_left,
                                            result.matched_right, config.tone_tolerance,

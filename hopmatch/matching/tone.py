@@ -41,6 +41,14 @@ TRIM = 3.0
 #: The right view's grey levels between these percentiles of the matches' span the
 #: curve's unit interval; beyond it the curve is continued by its end slopes.
 SPAN_PERCENTILES = (1.0, 99.0)
+#: Most second matches :func:`rematch_through_map` makes, each through the map read off
+#: the last one kept, while that map differs from the one before by at least
+#: :data:`TONE_CHANGE` of its rise (:func:`map_change`, over :data:`CHANGE_LEVELS` levels
+#: and a :data:`CHANGE_GRID` x :data:`CHANGE_GRID` grid of positions).
+TONE_ROUNDS = 2
+TONE_CHANGE = 0.005
+CHANGE_LEVELS = 32
+CHANGE_GRID = 16
 #: Quantiles (evenly spaced, 0 to 100 %) of each view that :func:`histogram_tone_map`
 #: pairs.
 HISTOGRAM_QUANTILES = 101
@@ -266,7 +274,7 @@ def needs_rematch(found: ToneMap, tone_tolerance: float | None,
 def rematch_through_map(gray_left: np.ndarray, gray_right: np.ndarray,
                         matched_left: np.ndarray, matched_right: np.ndarray,
                         tone_tolerance: float | None, field_tolerance: float | None,
-                        rematch) -> tuple[ToneMap | None, object]:
+                        rematch, rounds: int | None = None) -> tuple[ToneMap | None, object]:
     """``(map, second)``: the :func:`tone_map` of a first match (the grey views it was made
     on, its ``matched_left[i]`` with ``matched_right[i]``; None when both tolerances are
     None), and what ``rematch(grey)`` returned for the right grey view mapped through it,
@@ -274,21 +282,61 @@ def rematch_through_map(gray_left: np.ndarray, gray_right: np.ndarray,
 
     ``rematch(grey)`` is called when the map's ``nonlinearity`` exceeds ``tone_tolerance``
     or its ``field_range`` exceeds ``field_tolerance`` (:func:`needs_rematch`) and returns
-    ``(pairs, second)``: how many pairs the second match found, and whatever the caller
-    keeps of it. ``second`` is returned (and the map's ``used`` set) only when that match
-    has more pairs than the first (``len(matched_left)``): a map read off a first match
-    with many wrong pairs can be wrong itself, and the count keeps such a second match
-    from replacing a better first. A first match of fewer than :data:`MIN_MATCHES` pairs
-    has no map read off it; with ``tone_tolerance`` set, the map is then read off the two
-    views' histograms (:func:`histogram_tone_map`) and called for under the same rule."""
+    ``(left, right, second)``: the second match's pairs (``left[i]`` with ``right[i]``,
+    positions in the right view's own frame, which the map does not move) and whatever
+    the caller keeps of it. ``second`` is returned (and the map's ``used`` set) only when
+    that match has more pairs than the first (``len(matched_left)``): a map read off a
+    first match with many wrong pairs can be wrong itself, and the count keeps such a
+    second match from replacing a better first. A first match of fewer than
+    :data:`MIN_MATCHES` pairs has no map read off it; with ``tone_tolerance`` set, the
+    map is then read off the two views' histograms (:func:`histogram_tone_map`) and
+    called for under the same rule.
+
+    A map read off a poor first match is itself rough; so up to ``rounds`` (None:
+    :data:`TONE_ROUNDS`) second matches are made, each through the map read off the last
+    one kept while it still calls for one and differs from the map before it by at least
+    :data:`TONE_CHANGE` (:func:`map_change`), and the one with the most pairs is returned
+    with the map it was made through."""
     if tone_tolerance is None and field_tolerance is None:
         return None, None
+    rounds = TONE_ROUNDS if rounds is None else int(rounds)
     found = tone_map(gray_left, gray_right, matched_left, matched_right)
     if found is None and len(matched_left) < MIN_MATCHES and tone_tolerance is not None:
         found = histogram_tone_map(gray_left, gray_right)
     if found is None or not needs_rematch(found, tone_tolerance, field_tolerance):
         return found, None
-    pairs, second = rematch(found.apply(gray_right))
-    if pairs <= len(matched_left):
-        return found, None
-    return replace(found, used=True), second
+    first, kept, most = found, None, len(matched_left)
+    for _ in range(max(rounds, 1)):
+        left, right, second = rematch(found.apply(gray_right))
+        if len(left) <= most:
+            break
+        first, kept, most = replace(found, used=True), second, len(left)
+        found = tone_map(gray_left, gray_right, left, right)
+        if (found is None or not needs_rematch(found, tone_tolerance, field_tolerance)
+                or map_change(first, found, gray_right) < TONE_CHANGE):
+            break
+    return first, kept
+
+
+def map_change(a: ToneMap, b: ToneMap, gray_right: np.ndarray) -> float:
+    """How much two maps of the right view ``gray_right`` differ: the median, over
+    :data:`CHANGE_LEVELS` grey levels evenly spaced between the view's 1st and 99th
+    percentiles (:data:`SPAN_PERCENTILES`) and a grid of :data:`CHANGE_GRID` x
+    :data:`CHANGE_GRID` positions, of ``|a - b|`` (curve times gain), over the rise of
+    ``a``'s curve across those levels (0 when it does not rise)."""
+    low, high = np.percentile(np.asarray(gray_right, dtype=np.float64)[::4, ::4],
+                              SPAN_PERCENTILES)
+    levels = np.linspace(low, high, CHANGE_LEVELS)
+    h, w = a.shape
+    y, x = np.meshgrid(np.linspace(0.0, h - 1.0, CHANGE_GRID),
+                       np.linspace(0.0, w - 1.0, CHANGE_GRID), indexing="ij")
+    x, y = x.ravel(), y.ravel()
+
+    def mapped(m):
+        return m.curve(levels)[None, :] * np.exp(m.log_gain(x, y))[:, None]
+
+    curve = a.curve(levels)
+    rise = float(curve[-1] - curve[0])
+    if not rise > 0.0:
+        return 0.0
+    return float(np.median(np.abs(mapped(a) - mapped(b)))) / rise

@@ -358,7 +358,8 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
         again = None if few_matches_later is None else []
         searched = search(geometry, to_aligned, pts_l, found[0], desc_l, found[2], size,
                           config, record_energy, few_matches_later=again)
-        return len(searched[0].query_idx), (found, again, searched)
+        return (pts_l[searched[0].query_idx], found[0][searched[0].train_idx],
+                (found, again, searched))
 
     tone, second = rematch_through_map(gray_l, gray_r, pts_l[net.query_idx],
                                        pts_a[net.train_idx], config.tone_tolerance,

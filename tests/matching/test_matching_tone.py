@@ -171,21 +171,64 @@ def test_a_second_match_with_fewer_pairs_is_not_kept():
     def second_with(pairs):
         def rematch(gray):
             calls.append(gray)
-            return pairs, "second"
+            rows = np.arange(pairs) % n_first  # the first match's pairs, as many as asked
+            return first.matched_left[rows], first.matched_right[rows], "second"
         return rematch
 
     args = (gray_l, gray_r, first.matched_left, first.matched_right)
-    found, second = tone.rematch_through_map(*args, 0.04, None, second_with(10))
+    found, second = tone.rematch_through_map(*args, 0.04, None, second_with(10), rounds=1)
     assert len(calls) == 1 and second is None
     assert found.nonlinearity > 0.04 and not found.used
     np.testing.assert_array_equal(calls[0], found.apply(gray_r))
-    found, second = tone.rematch_through_map(*args, 0.04, None, second_with(n_first))
+    found, second = tone.rematch_through_map(*args, 0.04, None, second_with(n_first),
+                                             rounds=1)
     assert len(calls) == 2 and second is None and not found.used
-    found, second = tone.rematch_through_map(*args, 0.04, None, second_with(n_first + 1))
+    found, second = tone.rematch_through_map(*args, 0.04, None, second_with(n_first + 1),
+                                             rounds=1)
     assert len(calls) == 3 and second == "second" and found.used
     assert tone.rematch_through_map(*args, None, None, second_with(n_first + 1)) == (None,
                                                                                      None)
     assert len(calls) == 3
+
+
+def test_later_rounds_read_the_map_off_the_last_match_kept(monkeypatch):
+    """rematch_through_map with rounds=3: each second match is made through the map read
+    off the one before it while that one has more pairs; the last kept comes back with
+    the map it was made through; a round that finds no more pairs ends it, and so does a
+    map that changed less than TONE_CHANGE (here the pairs are the first match's own, so
+    the map barely changes: TONE_CHANGE 0 lets the rounds go on)."""
+    left, right = _exposed_pair()
+    det = hopmatch.DericheMoravecDetector()
+    gray_l = det.detect_and_describe(left, keep_gray=True)[4]
+    gray_r = det.detect_and_describe(right, keep_gray=True)[4]
+    first = hopmatch.match_stereo(left, right, max_disparity=16, tone_tolerance=None,
+                                  gain_field_tolerance=None)
+    n_first = len(first.query_idx)
+    seen, counts = [], iter([n_first + 10, n_first + 20])
+
+    def rematch(gray):
+        seen.append(gray)
+        rows = np.arange(next(counts)) % n_first
+        return first.matched_left[rows], first.matched_right[rows], len(seen)
+
+    args = (gray_l, gray_r, first.matched_left, first.matched_right)
+    found, second = tone.rematch_through_map(*args, 0.04, None, rematch, rounds=3)
+    assert len(seen) == 1 and second == 1 and found.used  # the map did not change
+    monkeypatch.setattr(tone, "TONE_CHANGE", 0.0)
+    seen.clear()
+    counts = iter([n_first + 10, n_first + 20, n_first + 5])
+    found, second = tone.rematch_through_map(*args, 0.04, None, rematch, rounds=3)
+    assert len(seen) == 3 and second == 2 and found.used
+    # the second round's grey view is the right view through the map read off the first
+    # round's pairs, and the map kept is that one
+    rows = np.arange(n_first + 10) % n_first
+    again = tone.tone_map(gray_l, gray_r, first.matched_left[rows], first.matched_right[rows])
+    np.testing.assert_allclose(seen[1], again.apply(gray_r), rtol=1e-5, atol=1e-3)
+    np.testing.assert_allclose(found.apply(gray_r), seen[1], rtol=1e-5, atol=1e-3)
+    seen.clear()
+    counts = iter([n_first + 10, n_first + 20])
+    found, second = tone.rematch_through_map(*args, 0.04, None, rematch, rounds=1)
+    assert len(seen) == 1 and second == 1
 
 
 def test_the_paper_never_remaps_and_the_tolerance_is_checked():
@@ -261,3 +304,24 @@ def test_a_first_match_too_poor_for_a_map_is_matched_again_through_the_histogram
     messages = [str(c.message) for c in caught]
     assert len(messages) == 1 and "right image" in messages[0]
     assert "overexposed" in messages[0]
+
+
+def test_map_change_is_the_median_difference_over_the_rise():
+    """map_change against a direct evaluation on its levels and grid; 0 for one map."""
+    gray = np.random.default_rng(0).uniform(0, 255, (40, 60))
+    a = _map(shape=(40, 60))
+    b = _map(field=(np.log(1.1), 0.2, 0.0, 0.0, 0.0, 0.0), bounds=(-0.5, 0.5), shape=(40, 60))
+    assert tone.map_change(a, a, gray) == 0.0
+    low, high = np.percentile(gray[::4, ::4], tone.SPAN_PERCENTILES)
+    levels = np.linspace(low, high, tone.CHANGE_LEVELS)
+    diffs = []
+    for y in np.linspace(0, 39, tone.CHANGE_GRID):
+        for x in np.linspace(0, 59, tone.CHANGE_GRID):
+            for v in levels:
+                va = a.curve(np.array([v]))[0] * np.exp(a.log_gain(np.array([x]),
+                                                                   np.array([y]))[0])
+                vb = b.curve(np.array([v]))[0] * np.exp(b.log_gain(np.array([x]),
+                                                                   np.array([y]))[0])
+                diffs.append(abs(va - vb))
+    rise = a.curve(levels)[-1] - a.curve(levels)[0]
+    assert tone.map_change(a, b, gray) == pytest.approx(np.median(diffs) / rise, rel=1e-9)
