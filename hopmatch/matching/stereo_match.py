@@ -210,21 +210,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         (found_l, t_l), (found_r, t_r) = run_both(lambda: detect(left, mask_left, "left"),
                                                   lambda: detect(right, mask_right, "right"),
                                                   threads)
-        try:
-            keypoint_size = float(detector.getWindowSize())
-            first_warnings = []
-            result = match_detected(found_l, found_r, config, keypoint_size=keypoint_size,
-                                    fundamental=fundamental, record_energy=record_energy,
-                                    timings={"detect_left": t_l, "detect_right": t_r},
-                                    threads=threads, raise_unrectified=may_switch,
-                                    warnings_later=first_warnings)
-        except LooksUnrectifiedError as found:
-            warn(f"the pair does not look rectified: {found.evidence}, so it was matched as "
-                 "an unrectified pair, its epipolar geometry estimated from the images "
-                 "(rectified=False; result.fundamental_matrix, result.geometry); pass "
-                 "rectified=True to search its rows anyway", UnrectifiedPairWarning)
-            return _match_unrectified(*given, detector, unrectified_config, None,
-                                      mask_left, mask_right, record_energy)
+        keypoint_size = float(detector.getWindowSize())
 
         def rematch(gray_right):  # the right view mapped through the pair's tone map
             found, t = detect(gray_right, mask_right, "right")
@@ -232,12 +218,29 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
             again = match_detected(found_l, found, config, keypoint_size=keypoint_size,
                                    fundamental=fundamental, record_energy=record_energy,
                                    timings={"detect_left": t_l, "detect_right": t_r + t},
-                                   threads=threads, warnings_later=later)
+                                   threads=threads, raise_unrectified=may_switch,
+                                   warnings_later=later)
             return again.matched_left, again.matched_right, (again, found, later)
 
-        tone, second = rematch_through_map(found_l[4], found_r[4], result.matched_left,
-                                           result.matched_right, config.tone_tolerance,
-                                           config.gain_field_tolerance, rematch)
+        try:
+            first_warnings = []
+            result = match_detected(found_l, found_r, config, keypoint_size=keypoint_size,
+                                    fundamental=fundamental, record_energy=record_energy,
+                                    timings={"detect_left": t_l, "detect_right": t_r},
+                                    threads=threads, raise_unrectified=may_switch,
+                                    warnings_later=first_warnings)
+            # a second match through the tone map may find the pair off its rows where
+            # the first, on views of unlike grey levels, could not tell
+            tone, second = rematch_through_map(found_l[4], found_r[4], result.matched_left,
+                                               result.matched_right, config.tone_tolerance,
+                                               config.gain_field_tolerance, rematch)
+        except LooksUnrectifiedError as found:
+            warn(f"the pair does not look rectified: {found.evidence}, so it was matched as "
+                 "an unrectified pair, its epipolar geometry estimated from the images "
+                 "(rectified=False; result.fundamental_matrix, result.geometry); pass "
+                 "rectified=True to search its rows anyway", UnrectifiedPairWarning)
+            return _match_unrectified(*given, detector, unrectified_config, None,
+                                      mask_left, mask_right, record_energy)
         exposure = exposure_note(found_l[4], found_r[4])  # the views as given
         if second is not None:
             result, found_r, first_warnings = second
