@@ -117,7 +117,7 @@ def test_a_pair_found_off_its_rows_after_the_tone_map_is_matched_as_unrectified(
     """Motorcycle's right view rotated 3 degrees, shifted 10 px down and darkened by gamma
     2.5: the first match, on views of unlike grey levels, finds too few look-alikes to
     tell the pair is off its rows; the second match through the tone map does, and the
-    defaults then match the pair as an unrectified one (before 2026-12-06 they searched
+    defaults then match the pair as an unrectified one (before 2026-12-05 they searched
     its rows: 88 matches, and a warning). The right points mapped back through the
     rotation lie within 1 px of the ground truth."""
     import warnings

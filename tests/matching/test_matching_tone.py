@@ -281,7 +281,7 @@ def test_a_first_match_too_poor_for_a_map_is_matched_again_through_the_histogram
     there is no map to read off it; the histograms' map finds thousands of matches, each
     within 1 px of the true disparity, and no warning. Without tone_tolerance the pair
     keeps no match and the warning says the right view is overexposed (it called the
-    views unrelated before 2026-12-06)."""
+    views unrelated before 2026-12-05)."""
     import warnings
 
     h, w, d = 240, 320, 7
