@@ -14,6 +14,7 @@ from ..errors import (
     NotStereoPairWarning,
     UnrectifiedPairWarning,
 )
+from ..feature.padding import black_padding
 from .candidates import best_two_look_alikes, candidate_pairs, clear_best_look_alikes
 from .similarity import similarity_distance, window_contrasts
 
@@ -230,10 +231,16 @@ def exposure_note(gray_left: np.ndarray, gray_right: np.ndarray) -> str:
     brightest level (or its darkest), :data:`CLIPPED_LEAD` more than the other view's
     share at that view's own extreme (both views of a white sky clip alike), or "" (also
     for a view of one level: no keypoint, which :func:`no_keypoints_cause` explains).
-    Shares are read every :data:`CLIPPED_STRIDE` pixels of each axis."""
+    Shares are read every :data:`CLIPPED_STRIDE` pixels of each axis, outside the view's
+    :func:`~hopmatch.feature.padding.black_padding` (a warped view's black corners are no
+    exposure)."""
     shares = []
     for gray in (gray_left, gray_right):
-        g = np.asarray(gray)[::CLIPPED_STRIDE, ::CLIPPED_STRIDE]
+        gray = np.asarray(gray)
+        if gray.ndim != 2 or gray.size == 0:
+            return ""
+        s = np.s_[::CLIPPED_STRIDE, ::CLIPPED_STRIDE]
+        g = gray[s][~black_padding(gray)[s]]
         if g.size == 0 or not np.isfinite(g).all():
             return ""
         lo, hi = g.min(), g.max()

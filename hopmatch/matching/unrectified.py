@@ -41,6 +41,7 @@ import numpy as np
 
 from .._validate import as_mask, check_coordinate_range
 from ..feature.descriptor import gradient_windows
+from ..feature.padding import black_padding, fill_padding
 from ..feature.sharpness import SharpnessMatch, equalise_sharpness
 from .disparity_range import coarse_extent
 from .geometry import (
@@ -153,33 +154,6 @@ def warp_right(right_gray, mask_right, to_aligned, size, margin: int):
         warped[~seen] = np.median(warped[seen])
     valid = cv2.erode(inside, np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)) > 0
     return warped, valid
-
-
-def black_padding(gray: np.ndarray) -> np.ndarray:
-    """Where ``gray`` is black padding (bool): the pixels of exactly 0 connected (4-way)
-    to a corner of the image, when they number at least the image's longer side, as
-    ``cv2.warpAffine``, ``cv2.remap`` after ``cv2.stereoRectify`` or a rotated photo
-    leave them. Such pixels show nothing, and would set the image's grey scale."""
-    h, w = gray.shape
-    flood = np.zeros((h + 2, w + 2), np.uint8)
-    for x, y in ((0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)):
-        if gray[y, x] == 0 and not flood[y + 1, x + 1]:
-            cv2.floodFill(np.ascontiguousarray(gray), flood, (x, y), 0, 0, 0,
-                          4 | cv2.FLOODFILL_MASK_ONLY | cv2.FLOODFILL_FIXED_RANGE
-                          | (255 << 8))
-    pad = flood[1:-1, 1:-1] > 0
-    return pad if int(pad.sum()) >= max(h, w) else np.zeros((h, w), bool)
-
-
-def fill_padding(gray: np.ndarray) -> np.ndarray:
-    """``gray`` with its :func:`black_padding` set to the median of the other pixels (a
-    copy; ``gray`` itself when it has none)."""
-    pad = black_padding(gray)
-    if not pad.any() or pad.all():
-        return gray
-    out = gray.copy()
-    out[pad] = np.median(gray[~pad])
-    return out
 
 
 def near_identity(maps, size) -> bool:

@@ -243,6 +243,8 @@ def test_a_clipped_view_is_not_called_an_unrelated_pair():
 
 
 def test_the_exposure_note_names_the_view_that_clips():
+    import cv2
+
     from hopmatch.matching.diagnostics import CLIPPED_SHARE, exposure_note
 
     rng = np.random.default_rng(0)
@@ -253,7 +255,7 @@ def test_the_exposure_note_names_the_view_that_clips():
     assert note.startswith("the right image") and "brightest" in note
     assert "overexposed" in note
     dark = left.copy()
-    dark[:60] = 0
+    dark[left < 60] = 0  # the darker levels clip, wherever they lie
     assert exposure_note(dark, left).startswith("the left image")
     assert "darkest" in exposure_note(dark, left)
     # both views clip alike (a white sky in each), a view of one level, or neither clips
@@ -264,6 +266,11 @@ def test_the_exposure_note_names_the_view_that_clips():
     little = left.copy()
     little[:, :8] = 255
     assert exposure_note(left, little) == ""
+    # the black corners a warp leaves (hopmatch.feature.padding) are no exposure
+    A = cv2.getRotationMatrix2D((80, 60), 8.0, 0.9)
+    turned = cv2.warpAffine(np.maximum(left, 1), A, (160, 120))
+    assert np.mean(turned == 0) >= CLIPPED_SHARE
+    assert exposure_note(left, turned) == ""
 
 
 @pytest.mark.shared_data
