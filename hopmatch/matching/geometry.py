@@ -332,6 +332,14 @@ def rectifying_homographies(F, left, right, size):
     return out[0], out[1]
 
 
+def alignment_turn(geometry: EpipolarGeometry) -> tuple[float, float]:
+    """``(degrees, scale)`` of :func:`row_alignment`'s similarity: how far the right image
+    is turned and by what factor it is scaled relative to the left one (0 and 1 for a
+    rectified pair)."""
+    S = row_alignment(geometry)
+    return float(np.degrees(np.arctan2(S[1, 0], S[0, 0]))), float(np.hypot(S[0, 0], S[1, 0]))
+
+
 def row_alignment(geometry: EpipolarGeometry, iterations: int = 3) -> np.ndarray:
     """The similarity ``S`` (3 x 3: rotation, scale, translation) with ``right = S @
     aligned`` that best lines up the rows of the inliers: it maps each right inlier to the

@@ -22,8 +22,13 @@ from ..feature.gradient import normalised_intensity
 from ..feature.sharpness import equalise_sharpness
 from . import guided, halves
 from .confidence import confidence_distances, fields_of_distances
-from .diagnostics import LooksUnrectifiedError, exposure_note, warn_if_no_keypoints
-from .geometry import GeometryWarning, transform_points
+from .diagnostics import (
+    LooksUnrectifiedError,
+    exposure_note,
+    still_few,
+    warn_if_no_keypoints,
+)
+from .geometry import GeometryWarning, alignment_turn, transform_points
 from .guided import guided_pass, guided_rounds
 from .guided_results import GreyFallback, GuidedMatches
 from .matcher import HopfieldMatcher
@@ -48,6 +53,16 @@ MATCHER_NAMES = frozenset(p.name for p in HopfieldMatcher.PARAMS)
 #: window's half-side grows with the fourth root of the pixel count beyond it
 #: (:func:`refine_radius`).
 REFINE_REFERENCE_PIXELS = 400_000
+
+#: ``match_stereo(rectified=None)``: a pair whose matches along its rows are few
+#: (:func:`~.diagnostics.still_few`) is matched as an unrectified pair too, and that match
+#: is kept when it found a geometry and more than this many times as many matches.
+UNRECTIFIED_FALLBACK_GAIN = 2.0
+#: ... and when the similarity that lines up its rows turns the right image by at most
+#: this many degrees and scales it by at most :data:`UNRECTIFIED_FALLBACK_SCALE` (or its
+#: inverse): two views side by side, not an object seen in another scene.
+UNRECTIFIED_FALLBACK_TURN = 15.0
+UNRECTIFIED_FALLBACK_SCALE = 1.25
 
 
 def split_parameters(params: dict, caller: str = "match_stereo") -> tuple[dict, dict]:
@@ -95,7 +110,11 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     rectified : bool or None
         None (default): the pair's rows are searched, as for True, unless the rectification
         check (docs/robustness.md) finds the pair far from rectified; it is then matched as
-        with False, and an :class:`~hopmatch.errors.UnrectifiedPairWarning` says so. Only
+        with False, and an :class:`~hopmatch.errors.UnrectifiedPairWarning` says so. A
+        pair that keeps few matches on its rows without such a sign (too far off for the
+        check to see, or of unlike exposure) is matched as with False too, and that match
+        kept when it finds a geometry of two views side by side and more matches
+        (:func:`fallback_kept`; the same warning). Only
         without ``fundamental_matrix``, a disparity range (``min_disparity`` or
         ``max_disparity``) and ``preset="paper"``: with any of them None is True.
         True: always the rows (the images must be rectified; a far-off pair gets the
@@ -244,6 +263,23 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         exposure = exposure_note(found_l[4], found_r[4])  # the views as given
         if second is not None:
             result, found_r, first_warnings = second
+        if may_switch and still_few(len(result.query_idx), found_l[0], found_r[0]):
+            # too few matches on its rows, and no clear sign of a pair off them: the
+            # unrectified path, kept when it finds a geometry and more matches
+            # (docs/robustness.md, "Pairs far from rectified")
+            later = []
+            other = _match_unrectified(*given, detector, unrectified_config, None,
+                                       mask_left, mask_right, record_energy,
+                                       warnings_later=later)
+            if fallback_kept(len(result.query_idx), other):
+                warn(f"the pair kept {len(result.query_idx)} matches along its rows and "
+                     f"{len(other.query_idx)} as an unrectified pair, its epipolar geometry "
+                     "estimated from the images (rectified=False; result.fundamental_matrix, "
+                     "result.geometry), so it was matched as one; pass rectified=True to "
+                     "search its rows anyway", UnrectifiedPairWarning)
+                for give in later:
+                    give()
+                return other
         for give in first_warnings:  # those of the match kept
             give(exposure=exposure)
         result.tone_map = tone
@@ -254,6 +290,21 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                           ("right", pts_r, gray_r, mask_right, window)])
     result.sharpness = sharpness
     return result
+
+
+def fallback_kept(kept_on_rows: int, other: StereoMatchResult) -> bool:
+    """Whether :func:`match_stereo` (``rectified=None``) keeps ``other``, the match of a
+    pair as an unrectified one, over the ``kept_on_rows`` matches along its rows: it found a
+    geometry, more than :data:`UNRECTIFIED_FALLBACK_GAIN` times as many matches, and a
+    pair side by side (:data:`UNRECTIFIED_FALLBACK_TURN`,
+    :data:`UNRECTIFIED_FALLBACK_SCALE`)."""
+    if other.fundamental_matrix is None or other.geometry is None:
+        return False
+    if len(other.query_idx) <= UNRECTIFIED_FALLBACK_GAIN * max(kept_on_rows, 1):
+        return False
+    degrees, scale = alignment_turn(other.geometry)
+    return (abs(degrees) <= UNRECTIFIED_FALLBACK_TURN
+            and 1 / UNRECTIFIED_FALLBACK_SCALE <= scale <= UNRECTIFIED_FALLBACK_SCALE)
 
 
 def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
@@ -492,8 +543,11 @@ def warm_up_beyond_network() -> None:
 
 
 def _match_unrectified(left, right, detector, config, fundamental, mask_left, mask_right,
-                       record_energy) -> StereoMatchResult:
-    """``match_stereo(..., rectified=False)``: :func:`match_unrectified` as a result."""
+                       record_energy, warnings_later: list | None = None) -> StereoMatchResult:
+    """``match_stereo(..., rectified=False)``: :func:`match_unrectified` as a result.
+    ``warnings_later``: a list, for a caller that may keep another match instead; the
+    warnings about the result (no geometry, few matches) are appended to it as callables of
+    no argument instead of being given."""
     if fundamental is not None:
         raise InvalidArgumentError(
             "match_stereo got rectified=False and a fundamental_matrix: rectified=False "
@@ -508,9 +562,11 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
     pts_l, resp_l, pts_r, resp_r, net, geometry, timings, frame = match_unrectified(
         left, right, detector, config, mask_left=mask_left, mask_right=mask_right,
         record_energy=record_energy, few_matches_later=few_matches_check)
+    pending = []
     if net is None:
-        warn(f"match_stereo(rectified=False) found no epipolar geometry, so no matches: "
-             f"{geometry.reason}", GeometryWarning)
+        pending.append(functools.partial(
+            warn, f"match_stereo(rectified=False) found no epipolar geometry, so no matches: "
+            f"{geometry.reason}", GeometryWarning))
         net = empty_network_result(config)
     result = StereoMatchResult(
         points_left=pts_l, points_right=pts_r, responses_left=resp_l, responses_right=resp_r,
@@ -522,8 +578,13 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
         tone_map=None if frame is None else frame.tone_map)
     if frame is not None and frame.mode != "epipolar" and len(net.query_idx):
         result = unrectified_beyond_network(result, frame)
-    for check in few_matches_check:
-        check(kept=len(result.query_idx))
+    pending += [functools.partial(check, kept=len(result.query_idx))
+                for check in few_matches_check]
+    if warnings_later is not None:
+        warnings_later.extend(pending)
+    else:
+        for give in pending:
+            give()
     return result
 
 

@@ -12,6 +12,7 @@ from unrect_scene import SIZE, perturbation, perturbed_truth, render_pair, textu
 import hopmatch
 from hopmatch.errors import InvalidArgumentError, InvalidTypeError
 from hopmatch.feature.descriptor import gradient_windows
+from hopmatch.feature.padding import black_padding
 from hopmatch.matching import unrectified as u
 from hopmatch.matching.geometry import symmetric_epipolar_error, transform_points
 from hopmatch.matching.stereo_match import PASS_GUIDED
@@ -144,25 +145,6 @@ def test_a_perturbed_rectified_pair_keeps_most_of_its_matches(angle, dy, scale):
     assert len(res.points_right) == res.n_detected_right + guided.sum()
 
 
-def test_black_padding_is_found_and_filled():
-    img = texture(np.random.default_rng(5), 300)[:200, :300]
-    assert not u.black_padding(img).any() and u.fill_padding(img) is img
-    A = cv2.getRotationMatrix2D((149.5, 99.5), 5.0, 0.97)
-    A[1, 2] += 12
-    rotated = cv2.warpAffine(img, A, (300, 200), flags=cv2.INTER_LINEAR)
-    pad = u.black_padding(rotated)
-    outside = cv2.warpAffine(np.full(img.shape, 255, np.uint8), A, (300, 200),
-                             flags=cv2.INTER_NEAREST) == 0
-    assert pad.sum() >= 0.9 * outside.sum() and not (pad & ~outside).any()
-    filled = u.fill_padding(rotated)
-    assert (filled[pad] == np.median(rotated[~pad])).all()
-    assert (filled[~pad] == rotated[~pad]).all()
-    # a few black pixels in a corner are content, not padding
-    few = img.copy()
-    few[:3, :3] = 0
-    assert not u.black_padding(few).any()
-
-
 def test_the_warp_outside_the_right_image_holds_its_median():
     img = texture(np.random.default_rng(6), 200)[:150, :200]
     to_aligned = np.array([[1.0, 0, 20], [0, 1, 10], [0, 0, 1]])
@@ -244,6 +226,69 @@ def test_the_defaults_match_a_far_off_pair_as_unrectified(angle, dy, scale):
         warnings.simplefilter("error", HopmatchWarning)
         plain = hopmatch.match_stereo(left, right)
     assert plain.geometry is None and len(plain.query_idx) > 1000
+
+
+@pytest.mark.parametrize("angle, dy", [(12.0, 60.0), (-12.0, -60.0)])
+def test_the_defaults_match_a_pair_with_no_matches_on_its_rows_as_unrectified(angle, dy):
+    """12 degrees and 60 px: too far off for the rectification check's window to see the
+    pair off its rows, so the rows keep no match; the unrectified path, tried because they
+    are so few, finds the geometry and is kept, with one warning that says so (and the
+    few-matches warning of the rows is not given)."""
+    from hopmatch.errors import UnrectifiedPairWarning
+
+    left, _, warped, gt, A = perturbed_box_pair(angle, dy, 1.0)
+    rows = hopmatch.match_stereo(left, warped, rectified=True)
+    assert len(rows.query_idx) < 10
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        auto = hopmatch.match_stereo(left, warped)
+    assert [w.category for w in caught] == [UnrectifiedPairWarning]
+    assert str(caught[0].message).startswith(
+        f"the pair kept {len(rows.query_idx)} matches along its rows and "
+        f"{len(auto.query_idx)} as an unrectified pair")
+    explicit = hopmatch.match_stereo(left, warped, rectified=False)
+    np.testing.assert_array_equal(auto.matched_right, explicit.matched_right)
+    t, known = perturbed_truth(auto.matched_left, gt, A)
+    correct = known & (np.hypot(*(auto.matched_right - t).T) <= 1)
+    assert correct.sum() / known.sum() >= 0.97 and correct.sum() > 4000
+
+
+def test_a_16_bit_pair_with_black_corners_is_matched_as_its_8_bit_twin():
+    """The black corners of a rotated 16-bit view are found as padding (OpenCV's floodFill
+    takes no 16-bit image: this raised cv2.error before) and the pair matched as the 8-bit
+    one is."""
+    left, _, warped, _, _ = perturbed_box_pair(5.0, 30.0, 1.03)
+    assert warped[0, 0] == 0 and black_padding(warped).any()
+    eight = hopmatch.match_stereo(left, warped, rectified=False)
+    sixteen = hopmatch.match_stereo(left.astype(np.uint16) * 257,
+                                    warped.astype(np.uint16) * 257, rectified=False)
+    assert len(eight.query_idx) > 1000
+    assert abs(len(sixteen.query_idx) - len(eight.query_idx)) < 0.05 * len(eight.query_idx)
+
+
+def test_the_fallback_keeps_only_a_side_by_side_geometry_with_more_matches(verged):
+    """stereo_match.fallback_kept: a geometry, more than UNRECTIFIED_FALLBACK_GAIN times
+    the matches along the rows, and a right image turned and scaled little."""
+    import dataclasses
+
+    from hopmatch.matching import stereo_match as sm
+    from hopmatch.matching.geometry import alignment_turn
+
+    _, _, _, res = verged
+    degrees, scale = alignment_turn(res.geometry)
+    assert abs(degrees) <= sm.UNRECTIFIED_FALLBACK_TURN
+    n = len(res.query_idx)
+    assert sm.fallback_kept(0, res) and sm.fallback_kept(n // 3, res)
+    assert not sm.fallback_kept(n // 2, res)
+    assert not sm.fallback_kept(0, dataclasses.replace(res, fundamental_matrix=None,
+                                                       geometry=None))
+    # the bootstrap's right points turned by 30 degrees about the origin: an object seen
+    # turned in another scene, not the right view of a stereo pair
+    c, s = np.cos(np.radians(30)), np.sin(np.radians(30))
+    turned = (res.geometry.right_points.astype(np.float64) @ [[c, s], [-s, c]])
+    geometry = dataclasses.replace(res.geometry, right_points=turned.astype(np.float32))
+    assert abs(alignment_turn(geometry)[0]) > 25
+    assert not sm.fallback_kept(0, dataclasses.replace(res, geometry=geometry))
 
 
 def test_the_defaults_keep_the_rows_when_told_a_range_or_the_paper():
