@@ -1,6 +1,7 @@
 """Unrectified pairs and self-finding disparity ranges (issue 18): the figures of its goals.
 
-Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large ranges]
+Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large ranges
+truth fundamental]
 [--verge DEG] [--defaults] [--scenes NAME ...] [--refine-radius N] [--large-scene NAME
 --large-factor F]``
 (single thread; needs ``../shared/data`` or ``$HOPMATCH_SHARED_DATA`` for every section but
@@ -49,6 +50,13 @@ Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large 
   into the left (locally normalised, cubic B-spline sampling), and the vertical offset.
 - ``ranges``: the range ``max_disparity=None`` finds on every shared scene against its
   ground truth (share of ground-truth pixels inside).
+- ``fundamental``: a pair whose geometry is known: every shared scene, its right image
+  warped by :data:`FUNDAMENTAL_PERTURBATION`, matched by ``match_stereo(left, right,
+  fundamental_matrix=F)`` with the true ``F`` of the warp and the ground truth's range
+  widened by :data:`FUNDAMENTAL_MARGIN` (the epipolar band of
+  ``hopmatch._kernels.candidates.epipolar_candidates``): matches, correct (within 1 px,
+  2-D), precision, the candidate pairs of the network, and the time (best of three, one
+  thread). Run it in two checkouts to compare them.
 
 ``--refine-radius N``: refine with that window half-side instead of the size rule of
 ``hopmatch.matching.stereo_match.refine_radius`` (every section; docs/parameters.md,
@@ -95,7 +103,12 @@ from hopmatch.stereo import StereoCalibration, epipolar_distances  # noqa: E402
 PERTURBATIONS = ((5.0, 30.0, 1.03), (-5.0, -30.0, 0.97), (2.0, 8.0, 1.0))
 #: ``--defaults``: also smaller perturbations, which a rectification check may let pass.
 DEFAULTS_PERTURBATIONS = ((0.5, 2.0, 1.0), (1.0, 4.0, 1.0), (-3.0, -15.0, 0.99)) + PERTURBATIONS
-SECTIONS = ("perturbed", "chessboards", "large", "ranges", "truth")
+SECTIONS = ("perturbed", "chessboards", "large", "ranges", "truth", "fundamental")
+#: The ``fundamental`` section's perturbation: rotation (degrees), vertical shift (px), scale.
+FUNDAMENTAL_PERTURBATION = (2.0, 8.0, 1.0)
+#: ... and how far its disparity range reaches beyond the ground truth's (px): the
+#: rotation moves the columns too.
+FUNDAMENTAL_MARGIN = 20.0
 PATTERN = (9, 6)
 #: The scenes of the ``truth`` section by default: the large pair's and Middlebury 2014's.
 TRUTH_SCENES = ("motorcycle", "middlebury2014/MotorcycleE", "middlebury2014/Teddy",
@@ -546,6 +559,43 @@ def ranges(names) -> None:
     print()
 
 
+def fundamental(names) -> None:
+    """The ``fundamental`` section."""
+    angle, dy, scale = FUNDAMENTAL_PERTURBATION
+    print(f"## A known fundamental matrix: match_stereo(left, right, fundamental_matrix=F), "
+          f"right image {angle:+g} deg, {dy:+g} px, x{scale:g}\n")
+    print("| scene | matches | correct | precision | candidate pairs | ms |")
+    print("|---|---:|---:|---:|---:|---:|")
+    rectified_f = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    tot_c = tot_n = 0
+    total_s = 0.0
+    for name in names:
+        scene = datasets.load(name)
+        if name == "motorcycle" and len(names) <= 2:  # --smoke
+            scene = smoke_scene(scene)
+        A = perturbation(scene.image_size, angle, dy, scale)
+        right = warp(scene.right, A, scene.image_size)
+        F = np.linalg.inv(np.vstack([A, [0.0, 0.0, 1.0]])).T @ rectified_f
+        v = scene.disparity[np.isfinite(scene.disparity)]
+        rng = dict(min_disparity=float(np.floor(v.min())) - FUNDAMENTAL_MARGIN,
+                   max_disparity=float(np.ceil(v.max())) + FUNDAMENTAL_MARGIN)
+        seconds = float("inf")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for _ in range(3):
+                t0 = time.perf_counter()
+                r = hopmatch.match_stereo(scene.left, right, fundamental_matrix=F, **rng)
+                seconds = min(seconds, time.perf_counter() - t0)
+        t, known = truth(r.matched_left, scene.disparity, A)
+        ok = known & (np.hypot(*(r.matched_right - t[:, :2]).T) <= 1.0)
+        n, c = int(known.sum()), int(ok.sum())
+        tot_c, tot_n, total_s = tot_c + c, tot_n + n, total_s + seconds
+        print(f"| {name} | {len(r.query_idx)} | {c} | {c / n if n else float('nan'):.3f} | "
+              f"{len(r.network.state)} | {1e3 * seconds:.0f} |", flush=True)
+    print(f"\nAll scenes: {tot_c} correct of {tot_n} scored "
+          f"({tot_c / max(tot_n, 1):.4f}), {total_s:.2f} s in all\n")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sections", nargs="*", choices=SECTIONS, default=list(SECTIONS))
@@ -585,6 +635,8 @@ def main(argv=None) -> int:
             chessboards(args.smoke)
         elif section == "ranges":
             ranges(names)
+        elif section == "fundamental":
+            fundamental(names)
         elif section == "truth":
             truth_fits(["motorcycle"] if args.smoke else (args.scenes or TRUTH_SCENES),
                        args.smoke)

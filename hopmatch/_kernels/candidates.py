@@ -350,12 +350,64 @@ def epipolar_offset(f, xl, yl, xr, yr):
     return (a * xr + b * yr + c) / norm
 
 
+#: :func:`epipolar_candidates` buckets the right points in horizontal strips of this many
+#: pixels (or ``2 vmax``, whichever is more), so that a left point scans only the strips
+#: its band crosses, each over the columns where it crosses them.
+EPIPOLAR_STRIP = 8.0
+#: ... and at most this many strips (taller ones over a taller range of y).
+EPIPOLAR_MAX_STRIPS = 4096
+
+
+@jit
+def epipolar_strips(right, order_x, min_height):
+    """The right points in horizontal strips from the smallest y, ``min_height`` px tall or
+    taller so that there are at most :data:`EPIPOLAR_MAX_STRIPS`: ``(ymin, height,
+    n_strips, start, members, xs, rank)``, ``start`` the CSR starts of the strips in
+    ``members`` (right point indices in ``order_x`` order within a strip, so x increasing),
+    ``xs`` their x (float32) and ``rank[k]`` the position of point k in ``order_x``."""
+    n = right.shape[0]
+    ymin = np.float64(right[0, 1])
+    ymax = ymin
+    for k in range(1, n):
+        y = np.float64(right[k, 1])
+        ymin = min(ymin, y)
+        ymax = max(ymax, y)
+    height = max(min_height, (ymax - ymin) / EPIPOLAR_MAX_STRIPS)
+    ns = min(int((ymax - ymin) // height) + 1, EPIPOLAR_MAX_STRIPS + 1)
+    strip = np.empty(n, dtype=np.int64)
+    start = np.zeros(ns + 1, dtype=np.int64)
+    for k in range(n):
+        s = min(int((np.float64(right[k, 1]) - ymin) // height), ns - 1)
+        strip[k] = s
+        start[s + 1] += 1
+    for s in range(ns):
+        start[s + 1] += start[s]
+    fill = start[:ns].copy()
+    members = np.empty(n, dtype=np.int32)
+    xs = np.empty(n, dtype=np.float32)
+    rank = np.empty(n, dtype=np.int32)
+    for t in range(n):
+        k = order_x[t]
+        rank[k] = t
+        q = fill[strip[k]]
+        members[q] = k
+        xs[q] = right[k, 0]
+        fill[strip[k]] = q + 1
+    return ymin, height, ns, start, members, xs, rank
+
+
 @jit
 def epipolar_candidates(left, right, order_x, rx_sorted, f, dmin, dmax, vmax, max_neurons):
     """The pairs with ``dmin <= xl - xr <= dmax`` and the right point within ``vmax`` of the
     left point's epipolar line (fundamental matrix ``f``, float64 3 x 3), as ``(ni, nk, n)``
-    grouped by left point i increasing (within a group in x order: :func:`sort_groups` sorts
-    them). ``order_x`` sorts the right points by x, ``rx_sorted`` is their x in that order.
+    grouped by left point i increasing, within a group in x order (``order_x`` sorts the
+    right points by x, ``rx_sorted`` is their x in that order).
+
+    Each left point scans only the strips of :func:`epipolar_strips` that its band crosses
+    over the disparity range, each over the columns where the band crosses it (widened by
+    1 px for rounding), then tests every point there exactly (eq. 12's window with the
+    epipolar offset for the rows): the work grows with the band's pairs, not with
+    ``Nl x Nr``. A near-vertical epipolar line (``|b| <= 1e-9 |(a, b)|``) scans every strip.
 
     As :func:`band_candidates`: the output grows up to ``max_neurons`` entries; past that
     the count stops at the first pair beyond the budget, ``n > max_neurons`` says so and
@@ -364,30 +416,86 @@ def epipolar_candidates(left, right, order_x, rx_sorted, f, dmin, dmax, vmax, ma
     cap = min(max_neurons, 8 * left.shape[0] + 1024)
     ni = np.empty(cap, dtype=np.int32)
     nk = np.empty(cap, dtype=np.int32)
+    rk = np.empty(cap, dtype=np.int32)  # int32 as ni, nk: grown() compiles once
     p = np.int64(0)  # not the literal 0: grown() would compile twice
+    if right.shape[0] == 0 or left.shape[0] == 0:
+        return ni[:0].copy(), nk[:0].copy(), p
+    ymin, height, ns, start, members, xs, rank = epipolar_strips(
+        right, order_x, max(EPIPOLAR_STRIP, 2.0 * np.float64(vmax)))
+    pad = 1.0
     for i in range(left.shape[0]):
         xl = np.float64(left[i, 0])
         yl = np.float64(left[i, 1])
-        a, b = _window_query(rx_sorted, np.float32(xl - dmax), np.float32(xl - dmin))
-        for t in range(a, b):
-            k = order_x[t]
-            d = left[i, 0] - right[k, 0]
-            if d >= dmin and d <= dmax:
-                if abs(epipolar_offset(f, xl, yl, np.float64(right[k, 0]),
-                                       np.float64(right[k, 1]))) <= vmax:
-                    if p == cap and cap < max_neurons:
-                        cap = min(2 * cap, max_neurons)
-                        ni = grown(ni, p, cap)
-                        nk = grown(nk, p, cap)
-                    if p < cap:
-                        ni[p] = i
-                        nk[p] = k
-                    p += 1
-                    if p > max_neurons:
-                        return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), p
+        a = f[0, 0] * xl + f[0, 1] * yl + f[0, 2]
+        b = f[1, 0] * xl + f[1, 1] * yl + f[1, 2]
+        c = f[2, 0] * xl + f[2, 1] * yl + f[2, 2]
+        norm = np.sqrt(a * a + b * b)
+        if not norm > 0.0:
+            continue  # no line: no right point is within vmax of it
+        wx_lo = np.float32(xl - dmax)
+        wx_hi = np.float32(xl - dmin)
+        s_lo = 0
+        s_hi = ns - 1
+        steep = not abs(b) > 1e-9 * norm
+        half = np.float64(vmax) * norm / abs(b) if not steep else 0.0
+        if not steep:  # the strips the band crosses between the window's ends
+            y1 = (-a * np.float64(wx_lo) - c) / b
+            y2 = (-a * np.float64(wx_hi) - c) / b
+            y_lo = min(y1, y2) - half - pad
+            y_hi = max(y1, y2) + half + pad
+            if y_lo == y_lo and y_hi == y_hi:  # finite bounds narrow the strips
+                s_lo = int(max(-1.0, min(np.float64(ns), (y_lo - ymin) // height)))
+                s_hi = int(max(-1.0, min(np.float64(ns), (y_hi - ymin) // height)))
+                s_lo = max(s_lo, 0)
+                s_hi = min(s_hi, ns - 1)
+        for s in range(s_lo, s_hi + 1):
+            x_lo = wx_lo
+            x_hi = wx_hi
+            if not steep and abs(a) > 1e-12 * norm:  # the columns where it crosses strip s
+                y0 = ymin + s * height - half - pad
+                y3 = ymin + (s + 1) * height + half + pad
+                xa = (-b * y0 - c) / a
+                xb = (-b * y3 - c) / a
+                if xa == xa and xb == xb:
+                    x_lo = max(x_lo, np.float32(min(xa, xb) - pad))
+                    x_hi = min(x_hi, np.float32(max(xa, xb) + pad))
+            if not x_lo <= x_hi:
+                continue
+            t0 = start[s]
+            ta, tb = _window_query(xs[t0:start[s + 1]], x_lo, x_hi)
+            for t in range(t0 + ta, t0 + tb):
+                k = members[t]
+                d = left[i, 0] - right[k, 0]
+                if d >= dmin and d <= dmax:
+                    if abs(epipolar_offset(f, xl, yl, np.float64(right[k, 0]),
+                                           np.float64(right[k, 1]))) <= vmax:
+                        if p == cap and cap < max_neurons:
+                            cap = min(2 * cap, max_neurons)
+                            ni = grown(ni, p, cap)
+                            nk = grown(nk, p, cap)
+                            rk = grown(rk, p, cap)
+                        if p < cap:
+                            ni[p] = i
+                            nk[p] = k
+                            rk[p] = rank[k]
+                        p += 1
+                        if p > max_neurons:
+                            return (np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32),
+                                    p)
     if p > max_neurons:
         return np.empty(0, dtype=np.int32), np.empty(0, dtype=np.int32), p
-    return ni[:p].copy(), nk[:p].copy(), p
+    # each group in x order (order_x), as one scan of the sorted x gives: the strips found
+    # them strip by strip (sort_groups of the ranks, in its one compiled form)
+    out_i = ni[:p].copy()
+    ranks = rk[:p].copy()
+    out_k = np.empty(p, dtype=np.float64)
+    for j in range(p):
+        out_k[j] = nk[j]
+    sort_groups(out_i, ranks, out_k)
+    out = np.empty(p, dtype=np.int32)
+    for j in range(p):
+        out[j] = np.int32(out_k[j])
+    return out_i, out, p
 
 
 @jit

@@ -137,6 +137,43 @@ class TestCandidates:
         with pytest.raises(BudgetExceededError, match=f"would have {len(want)} neurons"):
             candidate_pairs(left, right, 0.0, 20.0, 2.0, len(want) - 1, f)
 
+    @pytest.mark.parametrize("seed, vmax", [(0, 1.5), (1, 4.0), (2, 40.0), (3, 1e4)])
+    def test_epipolar_strips_keep_every_pair_of_slanted_and_steep_lines(self, seed, vmax):
+        """The strips of epipolar_candidates on a verged pair (lines slanted by up to about
+        a third, and steep or vertical ones for some left points): the same pairs as the
+        brute force, and each group in x order (ties by index) before any sort."""
+        rng = np.random.default_rng(seed)
+        left = np.column_stack([rng.uniform(0, 400, 300), rng.uniform(0, 300, 300)])
+        right = np.column_stack([rng.uniform(-20, 420, 500), rng.uniform(-10, 310, 500)])
+        right[:40, 0] = np.round(right[:40, 0])  # ties in x
+        right[40:60, 0] = right[:20, 0]
+        left, right = left.astype(np.float32), right.astype(np.float32)
+        # lines through the epipole (e, 150): slanted for x far from e, steep near it
+        e = rng.uniform(100, 300)
+        f = np.array([[0.0, -1.0, 150.0], [1.0, 0.0, -e], [-150.0, e, 0.0]])
+        f = f + rng.normal(0, 1e-4, (3, 3))
+        want = naive.epipolar_candidate_pairs(left, right, -30.0, 120.0, vmax, f)
+        assert len(want) > 100
+        order = np.argsort(right[:, 0], kind="stable")
+        ni, nk, n = _k.epipolar_candidates(left, right, order,
+                                           np.ascontiguousarray(right[order, 0]), f,
+                                           np.float32(-30.0), np.float32(120.0),
+                                           np.float32(vmax), 10**7)
+        assert n == len(want) == len(ni)
+        assert sorted(zip(ni.tolist(), nk.tolist())) == want
+        assert (np.diff(ni) >= 0).all()
+        rank = np.empty(len(right), np.int64)
+        rank[order] = np.arange(len(right))
+        same = np.diff(ni) == 0
+        assert (np.diff(rank[nk])[same] > 0).all()
+        if len(want) > 10:  # past the budget: the count stops at the first pair beyond it
+            budget = len(want) // 2
+            ci, ck, cn = _k.epipolar_candidates(left, right, order,
+                                                np.ascontiguousarray(right[order, 0]), f,
+                                                np.float32(-30.0), np.float32(120.0),
+                                                np.float32(vmax), budget)
+            assert cn == budget + 1 and len(ci) == len(ck) == 0
+
     @pytest.mark.parametrize("max_entries", [1, 40, 10**4])
     def test_row_buckets_bracket_every_x_range(self, max_entries):
         """Every point of a row within [x_lo, x_hi] lies between the table entries of the
