@@ -1,7 +1,8 @@
 """The unrectified-pair check on real scenes: what it measures on rectified pairs and on
 pairs whose right image is shifted vertically.
 
-Run: ``python benchmarks/rectification_check.py`` (prints a Markdown table).
+Run: ``python benchmarks/rectification_check.py [--wide | --defaults | --costs]
+[--chessboards] [--smoke]`` (prints a Markdown table).
 
 For each scene, the default detector's keypoints and descriptors go through
 ``hopmatch.matching.diagnostics.rectification_evidence`` (the check behind
@@ -25,6 +26,13 @@ rotated 5 degrees, shifted 30 px down and scaled 1.03 (``cv2.warpAffine``); with
 ``../shared/data/opencv_stereo_calib`` (calibrated as in ``examples/stereo_calibration.py``)
 instead: low-texture scenes where many look-alikes are wrong.
 
+``--defaults`` runs ``match_stereo`` with its defaults on each pair (one thread, best of 3
+after one untimed call) and with ``rectified=True``: matches on the rows, matches by
+default, how the default searched (``rows``, or ``result.geometry.search`` when it matched
+the pair as unrectified), the share of the default's matches within 1 px of their row, and
+both times: what ``rectified=None``'s switch and its fallback (a pair below 3 % kept on
+its rows is matched as unrectified too, docs/robustness.md) cost on rectified pairs.
+
 ``--costs`` times (best of 3, one thread) the searches for each left point's clear best
 look-alike, on each scene's default keypoints over a quarter of the width: the row-offset
 prior that every rectified pair's network starts with (``vertical.prior_look_alikes``,
@@ -44,6 +52,7 @@ import argparse
 import dataclasses
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import cv2
@@ -162,6 +171,31 @@ def costs_table(det, smoke: bool) -> None:
         print(f"| {name} | " + " | ".join(cells) + " |")
 
 
+def defaults_table(smoke: bool, chessboards: bool) -> None:
+    """The ``--defaults`` table."""
+    print("| pair | on the rows | default | search | within 1 px of the row | rows ms | "
+          "default ms |")
+    print("|---|---:|---:|---|---:|---:|---:|")
+    for name, left, right in pairs(chessboards, smoke=smoke):
+        cells = []
+        for rectified in (True, None):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", hopmatch.errors.HopmatchWarning)
+                hopmatch.match_stereo(left, right, rectified=rectified)
+                times = []
+                for _ in range(3):
+                    t0 = time.perf_counter()
+                    res = hopmatch.match_stereo(left, right, rectified=rectified)
+                    times.append(time.perf_counter() - t0)
+            cells.append((res, min(times)))
+        (rows, t_rows), (auto, t_auto) = cells
+        dy = np.abs(auto.matched_left[:, 1] - auto.matched_right[:, 1])
+        share = f"{np.mean(dy <= 1.0):.3f}" if len(dy) else "n/a"
+        search = "rows" if auto.geometry is None else auto.geometry.search
+        print(f"| {name} | {len(rows.query_idx)} | {len(auto.query_idx)} | {search} | {share} "
+              f"| {1e3 * t_rows:.0f} | {1e3 * t_auto:.0f} |")
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--chessboards", action="store_true",
@@ -170,12 +204,18 @@ def main(argv=None) -> None:
                         help="what match_stereo's rectified=None decides on (docs/pipelines.md)")
     parser.add_argument("--costs", action="store_true",
                         help="time the look-alike searches of the checks and the 2-D bootstrap")
+    parser.add_argument("--defaults", action="store_true",
+                        help="match_stereo's defaults against rectified=True, and their time")
     args = add_smoke_option(parser).parse_args(argv)
     det = hopmatch.DericheMoravecDetector()
     if args.costs:
         hopmatch.setNumThreads(1)
         cv2.setNumThreads(1)
         return costs_table(det, args.smoke)
+    if args.defaults:
+        hopmatch.setNumThreads(1)
+        cv2.setNumThreads(1)
+        return defaults_table(args.smoke, args.chessboards)
     if args.wide:
         hopmatch.setNumThreads(1)
         cv2.setNumThreads(1)

@@ -308,6 +308,16 @@ def test_rectification_check_costs_smoke():
                  table_row("motorcycle", r"\d+", *[r"\d+\.\d"] * 4))
 
 
+def test_rectification_check_defaults_smoke(shared_data):
+    """docs/robustness.md quotes its table: what the defaults do and cost on the rectified
+    chessboard pairs against rectified=True."""
+    out = run_script("rectification_check.py", "--defaults", "--chessboards")
+    assert_lines(out, r"\| pair \| on the rows \| default \| search \| within 1 px of the row \| "
+                      r"rows ms \| default ms \|",
+                 table_row("chessboard 01", r"\d+", r"\d+", r"(rows|aligned|rectified|epipolar)",
+                           r"(\d\.\d{3}|n/a)", r"\d+", r"\d+"))
+
+
 def test_rectification_check_chessboards_smoke(shared_data):
     out = run_script("rectification_check.py", "--chessboards")
     cell = r"(\d+\.\d\d \(\d+, \d+%\)|n/a)"
