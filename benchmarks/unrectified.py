@@ -52,11 +52,13 @@ truth fundamental]
   ground truth (share of ground-truth pixels inside).
 - ``fundamental``: a pair whose geometry is known: every shared scene, its right image
   warped by :data:`FUNDAMENTAL_PERTURBATION`, matched by ``match_stereo(left, right,
-  fundamental_matrix=F)`` with the true ``F`` of the warp and the ground truth's range
-  widened by :data:`FUNDAMENTAL_MARGIN` (the epipolar band of
-  ``hopmatch._kernels.candidates.epipolar_candidates``): matches, correct (within 1 px,
-  2-D), precision, the candidate pairs of the network, and the time (best of three, one
-  thread). Run it in two checkouts to compare them.
+  fundamental_matrix=F)`` with the true ``F`` of the warp, once with the ground truth's
+  range widened by :data:`FUNDAMENTAL_MARGIN` (the epipolar band of
+  ``hopmatch._kernels.candidates.epipolar_candidates``; with the candidate pairs of the
+  network) and once with no range (the rows lined up by F, or the band when too few
+  correspondences agree with F; how it searched): matches, correct (within 1 px, 2-D),
+  precision and the time (best of three, one thread). Run it in two checkouts to compare
+  them.
 
 ``--refine-radius N``: refine with that window half-side instead of the size rule of
 ``hopmatch.matching.stereo_match.refine_radius`` (every section; docs/parameters.md,
@@ -564,11 +566,12 @@ def fundamental(names) -> None:
     angle, dy, scale = FUNDAMENTAL_PERTURBATION
     print(f"## A known fundamental matrix: match_stereo(left, right, fundamental_matrix=F), "
           f"right image {angle:+g} deg, {dy:+g} px, x{scale:g}\n")
-    print("| scene | matches | correct | precision | candidate pairs | ms |")
-    print("|---|---:|---:|---:|---:|---:|")
+    print("with the range: the epipolar band; without: the rows lined up by F\n")
+    print("| scene | with the range: matches | correct | precision | candidate pairs | ms "
+          "| without: matches | correct | precision | search | ms |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|")
     rectified_f = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
-    tot_c = tot_n = 0
-    total_s = 0.0
+    tot = {"band": [0, 0, 0.0], "rows": [0, 0, 0.0]}
     for name in names:
         scene = datasets.load(name)
         if name == "motorcycle" and len(names) <= 2:  # --smoke
@@ -577,23 +580,32 @@ def fundamental(names) -> None:
         right = warp(scene.right, A, scene.image_size)
         F = np.linalg.inv(np.vstack([A, [0.0, 0.0, 1.0]])).T @ rectified_f
         v = scene.disparity[np.isfinite(scene.disparity)]
-        rng = dict(min_disparity=float(np.floor(v.min())) - FUNDAMENTAL_MARGIN,
-                   max_disparity=float(np.ceil(v.max())) + FUNDAMENTAL_MARGIN)
-        seconds = float("inf")
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            for _ in range(3):
-                t0 = time.perf_counter()
-                r = hopmatch.match_stereo(scene.left, right, fundamental_matrix=F, **rng)
-                seconds = min(seconds, time.perf_counter() - t0)
-        t, known = truth(r.matched_left, scene.disparity, A)
-        ok = known & (np.hypot(*(r.matched_right - t[:, :2]).T) <= 1.0)
-        n, c = int(known.sum()), int(ok.sum())
-        tot_c, tot_n, total_s = tot_c + c, tot_n + n, total_s + seconds
-        print(f"| {name} | {len(r.query_idx)} | {c} | {c / n if n else float('nan'):.3f} | "
-              f"{len(r.network.state)} | {1e3 * seconds:.0f} |", flush=True)
-    print(f"\nAll scenes: {tot_c} correct of {tot_n} scored "
-          f"({tot_c / max(tot_n, 1):.4f}), {total_s:.2f} s in all\n")
+        given_range = dict(min_disparity=float(np.floor(v.min())) - FUNDAMENTAL_MARGIN,
+                           max_disparity=float(np.ceil(v.max())) + FUNDAMENTAL_MARGIN)
+        cells = []
+        for key, extra in (("band", given_range), ("rows", {})):
+            seconds = float("inf")
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                for _ in range(3):
+                    t0 = time.perf_counter()
+                    r = hopmatch.match_stereo(scene.left, right, fundamental_matrix=F,
+                                              **extra)
+                    seconds = min(seconds, time.perf_counter() - t0)
+            t, known = truth(r.matched_left, scene.disparity, A)
+            ok = known & (np.hypot(*(r.matched_right - t[:, :2]).T) <= 1.0)
+            n, c = int(known.sum()), int(ok.sum())
+            tot[key] = [tot[key][0] + c, tot[key][1] + n, tot[key][2] + seconds]
+            how = (len(r.network.state) if key == "band" else
+                   "band" if r.geometry is None else r.geometry.search)
+            cells.append(f"{len(r.query_idx)} | {c} | {c / n if n else float('nan'):.3f} | "
+                         f"{how} | {1e3 * seconds:.0f}")
+        print(f"| {name} | " + " | ".join(cells) + " |", flush=True)
+    for key, label in (("band", "With the range"), ("rows", "Without")):
+        c, n, secs = tot[key]
+        print(f"\n{label}: {c} correct of {n} scored ({c / max(n, 1):.4f}), "
+              f"{secs:.2f} s in all")
+    print()
 
 
 def main(argv=None) -> int:

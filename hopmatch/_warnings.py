@@ -30,3 +30,14 @@ def caller_stacklevel() -> int:
 def warn(message: str, category: type[Warning]) -> None:
     """``warnings.warn(message, category)`` attributed to the user's line of code."""
     warnings.warn(message, category, stacklevel=caller_stacklevel())
+
+
+def give_or_defer(pending: list, warnings_later: list | None) -> None:
+    """Give the warnings ``pending`` (callables of no argument) now, or append them to
+    ``warnings_later``, for a caller that may keep another result instead and give its
+    warnings only (``hopmatch.matching.stereo_match``)."""
+    if warnings_later is not None:
+        warnings_later.extend(pending)
+    else:
+        for give in pending:
+            give()

@@ -75,7 +75,8 @@ class EpipolarGeometry:
         Median symmetric epipolar distance of the inliers, in pixels (NaN without F).
     source : str
         ``'sift'`` or ``'descriptors'``: where the correspondences came from (``'refit'``:
-        the final matches, F refitted on them).
+        the final matches, F refitted on them; ``'given'``: F was given, the SIFT
+        correspondences are those that agree with it, :func:`given_geometry`).
     reason : str or None
         Why no F was accepted.
     search : str or None
@@ -269,6 +270,27 @@ def estimate_geometry(left_gray, right_gray) -> EpipolarGeometry:
     then :func:`robust_fundamental`."""
     pl, pr, level = sift_correspondences(left_gray, right_gray)
     return robust_fundamental(pl, pr, F_THRESHOLD * 2 ** level, "sift")
+
+
+def given_geometry(fundamental, left_gray, right_gray) -> EpipolarGeometry:
+    """The given ``fundamental`` (3 x 3, checked) with the SIFT bootstrap correspondences
+    of two grey images (:func:`sift_correspondences`) within ``F_THRESHOLD x 2**level`` px
+    of its lines (symmetric) as its inliers, source ``'given'``: what the unrectified path
+    needs to line up the rows (:func:`row_alignment`) of a pair whose F is known. Refused
+    (``fundamental`` None, ``reason`` set) when fewer than :data:`MIN_INLIERS` agree."""
+    pl, pr, level = sift_correspondences(left_gray, right_gray)
+    threshold = F_THRESHOLD * 2 ** level
+    F = np.ascontiguousarray(fundamental, np.float64)
+    err = symmetric_epipolar_error(F, pl, pr) if len(pl) else np.zeros(0)
+    inliers = err <= threshold
+    k = int(inliers.sum())
+    median = float(np.median(err[inliers])) if k else float("nan")
+    if k < MIN_INLIERS:
+        return EpipolarGeometry(None, pl, pr, inliers, median, "given", (
+            f"only {k} of {len(pl)} bootstrap correspondences lie within {threshold:g} px of "
+            f"the given fundamental matrix's epipolar lines (at least {MIN_INLIERS} are "
+            "needed to line up the rows)"))
+    return EpipolarGeometry(F, pl, pr, inliers, median, "given")
 
 
 def estimate_geometry_of_points(q_pts, t_pts, qd, td, size) -> EpipolarGeometry:

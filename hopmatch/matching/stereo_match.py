@@ -10,7 +10,7 @@ import numpy as np
 
 from .._threads import resolve_threads, run_both, using_threads
 from .._validate import as_fundamental_matrix, check_coordinate_range
-from .._warnings import warn
+from .._warnings import give_or_defer, warn
 from ..errors import (
     ImageSizeWarning,
     InvalidArgumentError,
@@ -105,8 +105,13 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     mask_left, mask_right : (H, W) uint8 or bool ndarray, optional
         Where keypoints may be detected.
     fundamental_matrix : (3, 3) array-like, optional
-        Match an unrectified pair along epipolar lines (``x_r^T F x_l = 0``, as
-        ``cv2.findFundamentalMat`` returns it) instead of image rows.
+        The known geometry of an unrectified pair (``x_r^T F x_l = 0``, as
+        ``cv2.findFundamentalMat`` returns it). With no disparity range, the pair is matched
+        as with ``rectified=False`` but along this F (its rows lined up by it, not by one
+        estimated; ``result.geometry.source == "given"``), unless too few SIFT
+        correspondences agree with it for that; then, and with a range,
+        ``preset="paper"`` or ``rectified=True``, the network searches the epipolar band
+        of F (its matches only: no guided pass or refinement).
     rectified : bool or None
         None (default): the pair's rows are searched, as for True, unless the rectification
         check (docs/robustness.md) finds the pair far from rectified; it is then matched as
@@ -210,9 +215,22 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         with using_threads(threads):
             return _match_unrectified(left, right, detector, unrectified_config, fundamental,
                                       mask_left, mask_right, record_energy)
-    may_switch = (rectified is None and fundamental is None and config.max_disparity is None
-                  and "min_disparity" not in match_params and config.preset != "paper"
-                  and (matcher is None or config.min_disparity in (None, 0.0)))
+    auto = (rectified is None and config.max_disparity is None
+            and "min_disparity" not in match_params and config.preset != "paper"
+            and (matcher is None or config.min_disparity in (None, 0.0)))
+    may_switch = auto and fundamental is None
+    if auto and fundamental is not None:
+        # the rows lined up by the given F, as rectified=False does with its own; when too
+        # few correspondences agree with F for that, its epipolar band below
+        later = []
+        with using_threads(threads):
+            aligned = _match_unrectified(left, right, detector, unrectified_config, None,
+                                         mask_left, mask_right, record_energy,
+                                         warnings_later=later, given=fundamental)
+        if aligned.fundamental_matrix is not None:
+            for give in later:
+                give()
+            return aligned
 
     given = left, right  # an unrectified pair is equalised after its warp (method.md 4.6)
     left, right, sharpness = equalise_sharpness(detector.gray_image(left, "left"),
@@ -363,13 +381,8 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     if fundamental is None and shape_l == shape_r and len(net.query_idx):
         result = beyond_network(result, (desc_l, desc_r), (g_l, g_r), (gray_l, gray_r),
                                 net.config, threads=threads)
-    pending = [functools.partial(check, kept=len(result.query_idx))
-               for check in few_matches_check]
-    if warnings_later is not None:
-        warnings_later.extend(pending)
-    else:
-        for check in pending:
-            check()
+    give_or_defer([functools.partial(check, kept=len(result.query_idx))
+                   for check in few_matches_check], warnings_later)
     return result
 
 
@@ -543,11 +556,14 @@ def warm_up_beyond_network() -> None:
 
 
 def _match_unrectified(left, right, detector, config, fundamental, mask_left, mask_right,
-                       record_energy, warnings_later: list | None = None) -> StereoMatchResult:
+                       record_energy, warnings_later: list | None = None,
+                       given=None) -> StereoMatchResult:
     """``match_stereo(..., rectified=False)``: :func:`match_unrectified` as a result.
     ``warnings_later``: a list, for a caller that may keep another match instead; the
     warnings about the result (no geometry, few matches) are appended to it as callables of
-    no argument instead of being given."""
+    no argument instead of being given. ``given``: a checked F to line the rows up with
+    (``match_stereo(..., fundamental_matrix=F)``), not estimated; ``fundamental`` is the
+    caller's argument with ``rectified=False``, refused."""
     if fundamental is not None:
         raise InvalidArgumentError(
             "match_stereo got rectified=False and a fundamental_matrix: rectified=False "
@@ -561,7 +577,7 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
     few_matches_check = []  # the few-matches check, made on the final matches below
     pts_l, resp_l, pts_r, resp_r, net, geometry, timings, frame = match_unrectified(
         left, right, detector, config, mask_left=mask_left, mask_right=mask_right,
-        record_energy=record_energy, few_matches_later=few_matches_check)
+        record_energy=record_energy, few_matches_later=few_matches_check, fundamental=given)
     pending = []
     if net is None:
         pending.append(functools.partial(
@@ -578,13 +594,8 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
         tone_map=None if frame is None else frame.tone_map)
     if frame is not None and frame.mode != "epipolar" and len(net.query_idx):
         result = unrectified_beyond_network(result, frame)
-    pending += [functools.partial(check, kept=len(result.query_idx))
-                for check in few_matches_check]
-    if warnings_later is not None:
-        warnings_later.extend(pending)
-    else:
-        for give in pending:
-            give()
+    give_or_defer(pending + [functools.partial(check, kept=len(result.query_idx))
+                             for check in few_matches_check], warnings_later)
     return result
 
 

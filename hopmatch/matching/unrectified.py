@@ -47,6 +47,7 @@ from .disparity_range import coarse_extent
 from .geometry import (
     EpipolarGeometry,
     estimate_geometry,
+    given_geometry,
     rectifying_homographies,
     refit_fundamental,
     row_alignment,
@@ -274,7 +275,8 @@ class SearchFrame:
 
 
 def match_unrectified(left, right, detector, config, *, mask_left=None, mask_right=None,
-                      record_energy=False, few_matches_later: list | None = None):
+                      record_energy=False, few_matches_later: list | None = None,
+                      fundamental=None):
     """The pipeline of this module's docstring.
 
     Returns ``(pts_l, resp_l, pts_r, resp_r, network, geometry, timings, frame)``: points
@@ -284,6 +286,8 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     ``geometry``, ``align``, ``detect_left``, ``detect_right`` and ``match``, and the
     :class:`SearchFrame` of the network (None without geometry). ``few_matches_later``:
     as :func:`~hopmatch.matching.network.match_pair`'s, for the network of the last pass.
+    ``fundamental``: a known F (checked) to line the rows up with instead of one estimated
+    (:func:`~hopmatch.matching.geometry.given_geometry`); it is kept, not refitted.
     """
     t0 = time.perf_counter()
     left_gray = detector.gray_image(left, "left")
@@ -291,7 +295,8 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     m_l = as_mask(mask_left, left_gray.shape, "mask_left")
     m_r = as_mask(mask_right, right_gray.shape, "mask_right")
     size = left_gray.shape[::-1]
-    geometry = estimate_geometry(left_gray, right_gray)
+    geometry = (estimate_geometry(left_gray, right_gray) if fundamental is None
+                else given_geometry(fundamental, left_gray, right_gray))
     t1 = time.perf_counter()
     timings = {"geometry": t1 - t0}
     if geometry.fundamental is None:
@@ -320,7 +325,7 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
         net, mode, shift, maps = search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r,
                                         size, config, record_energy,
                                         few_matches_later=pending)
-        if round_ + 1 < PASSES or REFITS:
+        if fundamental is None and (round_ + 1 < PASSES or REFITS):
             refit = refit_fundamental(geometry, pts_l[net.query_idx], pts_r[net.train_idx])
             if refit is geometry:
                 break

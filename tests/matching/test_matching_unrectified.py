@@ -266,6 +266,46 @@ def test_a_16_bit_pair_with_black_corners_is_matched_as_its_8_bit_twin():
     assert abs(len(sixteen.query_idx) - len(eight.query_idx)) < 0.05 * len(eight.query_idx)
 
 
+def test_a_given_fundamental_matrix_lines_up_the_rows_as_an_estimated_one_does():
+    """fundamental_matrix=F with no range: the rows lined up by the given F (kept as
+    given, up to the check's power-of-two scale; source 'given'), then the network, the
+    guided pass and the refinement on them, as rectified=False does with its own F; with
+    a range, or an F the images do not agree with, the epipolar band of F as before
+    (network only)."""
+    left, _, warped, gt, A = perturbed_box_pair(2.0, 8.0, 1.0)
+    F_rect = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    F = np.linalg.inv(np.vstack([A, [0.0, 0.0, 1.0]])).T @ F_rect
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", hopmatch.errors.HopmatchWarning)
+        res = hopmatch.match_stereo(left, warped, fundamental_matrix=F)
+    assert res.geometry.source == "given" and res.geometry.search == "aligned"
+    ratio = res.fundamental_matrix[1, 2] / F[1, 2]  # as checked: scaled by a power of 2
+    assert ratio == 2.0 ** np.round(np.log2(ratio))
+    np.testing.assert_array_equal(res.fundamental_matrix, F * ratio)
+    assert res.geometry.n_inliers >= 30 and (res.passes == PASS_GUIDED).any()
+    t, known = perturbed_truth(res.matched_left, gt, A)
+    correct = known & (np.hypot(*(res.matched_right - t).T) <= 1)
+    assert correct.sum() / known.sum() >= 0.97
+    estimated = hopmatch.match_stereo(left, warped, rectified=False)
+    t, known = perturbed_truth(estimated.matched_left, gt, A)
+    assert correct.sum() >= 0.95 * (known & (np.hypot(*(estimated.matched_right - t).T)
+                                             <= 1)).sum()
+    band = hopmatch.match_stereo(left, warped, fundamental_matrix=F, max_disparity=40)
+    assert band.geometry is None and (band.passes == 0).all()
+    assert len(band.query_idx) < len(res.query_idx)
+    # an F of another pair (the right view turned the other way): few SIFT
+    # correspondences agree with it, so its band is searched
+    other = np.linalg.inv(np.vstack([u_perturbation(-6.0), [0.0, 0.0, 1.0]])).T @ F_rect
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        wrong = hopmatch.match_stereo(left, warped, fundamental_matrix=other)
+    assert wrong.geometry is None
+
+
+def u_perturbation(angle):
+    return perturbation((480, 360), angle, 0.0, 1.0)
+
+
 def test_the_fallback_keeps_only_a_side_by_side_geometry_with_more_matches(verged):
     """stereo_match.fallback_kept: a geometry, more than UNRECTIFIED_FALLBACK_GAIN times
     the matches along the rows, and a right image turned and scaled little."""
