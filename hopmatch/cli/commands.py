@@ -142,7 +142,9 @@ def fundamental_text(result) -> str:
 
 
 def geometry_json(result) -> dict:
-    """run.json's ``geometry`` of an ``--unrectified`` run: F (or None) and how it was found."""
+    """run.json's ``geometry`` of a run with one (``--unrectified``, a pair switched to it,
+    or ``--fundamental-matrix`` with no range: ``source`` ``'given'``): F (or None) and how
+    it was found or used."""
     g = result.geometry
     median = float(g.median_error)
     return {"fundamental_matrix": (None if g.fundamental is None
@@ -153,10 +155,14 @@ def geometry_json(result) -> dict:
 
 
 def geometry_line(result) -> str:
-    """The line ``hopmatch match --unrectified`` says about the geometry it found."""
+    """The line ``hopmatch match`` says about the geometry it found (``--unrectified``) or
+    lined the rows up with (``--fundamental-matrix`` and no range)."""
     g = result.geometry
     if g.fundamental is None:
         return f"geometry: none found ({g.reason})"
+    if g.source == "given":
+        return (f"geometry: the given F, {g.n_inliers} of {g.n_correspondences} "
+                f"correspondences on its lines, searched {g.search}")
     return (f"geometry: F from {g.n_inliers} of {g.n_correspondences} correspondences "
             f"(median epipolar error {g.median_error:.2f} px), searched {g.search}")
 
@@ -409,7 +415,8 @@ def match(ctx, left, right, out, fundamental_file, unrectified, fmt, no_draw, pl
         result = match_stereo(img_l, img_r, record_energy=plot_energy,
                               fundamental_matrix=fundamental,
                               rectified=False if unrectified else None, **pipeline)
-        estimated = result.geometry is not None
+        geometry = result.geometry  # estimated (--unrectified, or switched), or the F given
+        estimated = geometry is not None and geometry.source != "given"
         t_match = time.perf_counter() - t0
         t1 = time.perf_counter()
         outputs.add_text(f"matches.{fmt}", _match_table(result, fmt))
@@ -436,7 +443,7 @@ def match(ctx, left, right, out, fundamental_file, unrectified, fmt, no_draw, pl
                         "unrectified": unrectified, "geometry_estimated": estimated,
                         "format": fmt, "draw": not no_draw, "figures": figures},
             counts=counts,
-            **({"geometry": geometry_json(result)} if estimated else {}),
+            **({"geometry": geometry_json(result)} if geometry is not None else {}),
             energy=float(result.network.energy),
             timings_ms={"read": ms(t_read), "warmup": ms(t_warm),
                         **{k: ms(v) for k, v in result.timings.items()},
@@ -450,7 +457,7 @@ def match(ctx, left, right, out, fundamental_file, unrectified, fmt, no_draw, pl
         say(ctx, f"matches: {counts['matches']}")
         if counts["matches"]:
             say(ctx, f"median disparity: {float(np.median(result.disparities)):g} px")
-        if estimated:
+        if geometry is not None:
             say(ctx, geometry_line(result))
         _say_times(ctx, result, t_match, t_warm)
         say(ctx, f"output: {outputs.path} ({', '.join(outputs.names)})")

@@ -102,6 +102,28 @@ def test_match_without_unrectified_finds_that_pair_off_its_rows(rotated_pair, tm
     assert int(printed(rows.stdout, "matches")) < int(printed(with_flag.stdout, "matches")) / 3
 
 
+def test_a_given_fundamental_matrix_is_reported_as_given(rotated_pair, tmp_path):
+    """--fundamental-matrix with no range lines the rows up by that F: run.json's geometry
+    says source 'given' and the geometry is not called estimated, no fundamental_matrix.txt
+    is written (the F is the user's), and the line about the geometry says it was given."""
+    left, right, _ = rotated_pair
+    A = cv2.getRotationMatrix2D((239.5, 179.5), ANGLE, 1.0)
+    A[1, 2] += SHIFT
+    F = np.linalg.inv(np.vstack([A, [0.0, 0.0, 1.0]])).T @ np.array(
+        [[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    np.savetxt(tmp_path / "F.txt", F)
+    res = run("match", left, right, "--out", tmp_path / "o", "--fundamental-matrix",
+              tmp_path / "F.txt")
+    assert res.returncode == 0, res.stderr
+    assert "geometry: the given F, " in res.stdout and "searched aligned" in res.stdout
+    assert not (tmp_path / "o" / "fundamental_matrix.txt").exists()
+    info = json.loads((tmp_path / "o" / "run.json").read_text())
+    assert not info["parameters"]["geometry_estimated"]
+    assert info["geometry"]["source"] == "given" and info["geometry"]["inliers"] >= 30
+    _, rows = read_csv(tmp_path / "o" / "matches.csv")
+    assert len(rows) == int(printed(res.stdout, "matches")) > 1000
+
+
 def test_unrectified_lets_the_sizes_differ(rotated_pair, tmp_path):
     left, right, _ = rotated_pair
     small = tmp_path / "small.png"
