@@ -284,7 +284,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         if may_switch and still_few(len(result.query_idx), found_l[0], found_r[0]):
             # too few matches on its rows, and no clear sign of a pair off them: the
             # unrectified path, kept when it finds a geometry and more matches
-            # (docs/robustness.md, "Pairs far from rectified")
+            # (docs/robustness.md, "Rectification check")
             later = []
             other = _match_unrectified(*given, detector, unrectified_config, None,
                                        mask_left, mask_right, record_energy,
