@@ -397,11 +397,11 @@ def epipolar_strips(right, order_x, min_height):
 
 
 @jit
-def epipolar_candidates(left, right, order_x, rx_sorted, f, dmin, dmax, vmax, max_neurons):
+def epipolar_candidates(left, right, order_x, f, dmin, dmax, vmax, max_neurons):
     """The pairs with ``dmin <= xl - xr <= dmax`` and the right point within ``vmax`` of the
     left point's epipolar line (fundamental matrix ``f``, float64 3 x 3), as ``(ni, nk, n)``
     grouped by left point i increasing, within a group in x order (``order_x`` sorts the
-    right points by x, ``rx_sorted`` is their x in that order).
+    right points by x).
 
     Each left point scans only the strips of :func:`epipolar_strips` that its band crosses
     over the disparity range, each over the columns where the band crosses it (widened by

@@ -93,8 +93,8 @@ def candidate_pairs(left, right, min_disparity, max_disparity, max_vertical, max
     else:
         order = np.argsort(right[:, 0], kind="stable")
         ni, nk, n = _kc.epipolar_candidates(
-            left, right, order, np.ascontiguousarray(right[order, 0]),
-            np.ascontiguousarray(fundamental, dtype=np.float64), *band, budget)
+            left, right, order, np.ascontiguousarray(fundamental, dtype=np.float64), *band,
+            budget)
     if n > max_neurons:
         raise BudgetExceededError(
             f"the network would have {n} neurons (candidate pairs) or more (counted until "

@@ -155,8 +155,7 @@ class TestCandidates:
         want = naive.epipolar_candidate_pairs(left, right, -30.0, 120.0, vmax, f)
         assert len(want) > 100
         order = np.argsort(right[:, 0], kind="stable")
-        ni, nk, n = _k.epipolar_candidates(left, right, order,
-                                           np.ascontiguousarray(right[order, 0]), f,
+        ni, nk, n = _k.epipolar_candidates(left, right, order, f,
                                            np.float32(-30.0), np.float32(120.0),
                                            np.float32(vmax), 10**7)
         assert n == len(want) == len(ni)
@@ -168,8 +167,7 @@ class TestCandidates:
         assert (np.diff(rank[nk])[same] > 0).all()
         if len(want) > 10:  # past the budget: the count stops at the first pair beyond it
             budget = len(want) // 2
-            ci, ck, cn = _k.epipolar_candidates(left, right, order,
-                                                np.ascontiguousarray(right[order, 0]), f,
+            ci, ck, cn = _k.epipolar_candidates(left, right, order, f,
                                                 np.float32(-30.0), np.float32(120.0),
                                                 np.float32(vmax), budget)
             assert cn == budget + 1 and len(ci) == len(ck) == 0
