@@ -18,8 +18,11 @@ def black_padding(gray: np.ndarray) -> np.ndarray:
     ``cv2.warpAffine``, ``cv2.remap`` after ``cv2.stereoRectify`` or a rotated photo
     leave them, in an image of any dtype. Such pixels show nothing, and would set the
     image's grey scale."""
+    gray = np.asarray(gray)
     h, w = gray.shape
-    zero = (np.asarray(gray) == 0).view(np.uint8)  # any dtype: floodFill takes 8U and 32F
+    if not (gray[[0, 0, h - 1, h - 1], [0, w - 1, 0, w - 1]] == 0).any():
+        return np.zeros((h, w), bool)  # no black corner to fill from: no padding
+    zero = (gray == 0).view(np.uint8)  # any dtype: floodFill takes 8U and 32F
     flood = np.zeros((h + 2, w + 2), np.uint8)
     for x, y in ((0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)):
         if zero[y, x] and not flood[y + 1, x + 1]:

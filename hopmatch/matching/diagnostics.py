@@ -240,7 +240,8 @@ def exposure_note(gray_left: np.ndarray, gray_right: np.ndarray) -> str:
         if gray.ndim != 2 or gray.size == 0:
             return ""
         s = np.s_[::CLIPPED_STRIDE, ::CLIPPED_STRIDE]
-        g = gray[s][~black_padding(gray)[s]]
+        pad = black_padding(gray)[s]
+        g = gray[s][~pad] if pad.any() else gray[s]
         if g.size == 0 or not np.isfinite(g).all():
             return ""
         lo, hi = g.min(), g.max()
