@@ -8,11 +8,16 @@ hopmatch package, the line of the user's code that called hopmatch.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import os
 import sys
 import warnings
 
 _PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
+#: The list :func:`warn` appends to instead of warning, within :func:`deferred_warnings`.
+_deferred: contextvars.ContextVar = contextvars.ContextVar("hopmatch_deferred_warnings",
+                                                           default=None)
 
 
 def caller_stacklevel() -> int:
@@ -28,8 +33,27 @@ def caller_stacklevel() -> int:
 
 
 def warn(message: str, category: type[Warning]) -> None:
-    """``warnings.warn(message, category)`` attributed to the user's line of code."""
+    """``warnings.warn(message, category)`` attributed to the user's line of code; within
+    :func:`deferred_warnings`, kept for later instead."""
+    pending = _deferred.get()
+    if pending is not None:
+        pending.append(lambda: warn(message, category))
+        return
     warnings.warn(message, category, stacklevel=caller_stacklevel())
+
+
+@contextlib.contextmanager
+def deferred_warnings():
+    """Within the block (this context, and the worker threads that copy it), :func:`warn`
+    appends each warning, as a callable of no argument that gives it, to the list the
+    block yields instead of giving it: for a caller that runs two matches and gives the
+    warnings of the one it keeps (:mod:`hopmatch.matching.channels`)."""
+    pending: list = []
+    token = _deferred.set(pending)
+    try:
+        yield pending
+    finally:
+        _deferred.reset(token)
 
 
 def give_or_defer(pending: list, warnings_later: list | None) -> None:

@@ -119,6 +119,12 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "(0.25: by about a quarter), the right view is divided by that gain (with the curve of "
         "tone_tolerance) and the pair matched again (hopmatch.matching.tone; "
         "result.tone_map); None: never, as in the paper")),
+    Param("channel_clip_share", 0.15, real(0.0, 1.0, lo_open=True, optional=True), doc=(
+        "match_stereo, colour views: when one or two colour channels are at their top "
+        "level (255, 65535) on at least this share of one view's pixels more than of the "
+        "other's (a brighter view that clips), the pair is matched again on grey levels "
+        "made of the other channels, and the match with more pairs kept "
+        "(hopmatch.matching.channels; result.grey_channels); None: never, as in the paper")),
     Param("refine", True, boolean(), doc=(
         "match_stereo's sub-pixel refinement: every match's right x moved to the peak of "
         "the ZNCC of 7 x 7 grey windows along the row, by re-centred parabola fits "
@@ -160,6 +166,7 @@ PRESETS: dict[str, dict] = {
         "sharpness_ratio": None,
         "tone_tolerance": None,
         "gain_field_tolerance": None,
+        "channel_clip_share": None,
         "refine": False,
         "vertical_model": "median",
     },

@@ -21,6 +21,7 @@ from ..feature.detector import DericheMoravecDetector
 from ..feature.gradient import normalised_intensity
 from ..feature.sharpness import equalise_sharpness
 from . import guided, halves
+from .channels import channels_kept, match_both_greys
 from .confidence import confidence_distances, fields_of_distances
 from .diagnostics import (
     LooksUnrectifiedError,
@@ -28,7 +29,7 @@ from .diagnostics import (
     still_few,
     warn_if_no_keypoints,
 )
-from .geometry import GeometryWarning, alignment_turn, transform_points
+from .geometry import GeometryWarning, transform_points
 from .guided import guided_pass, guided_rounds
 from .guided_results import GreyFallback, GuidedMatches
 from .matcher import HopfieldMatcher
@@ -40,6 +41,7 @@ from .tone import rematch_through_map
 from .unrectified import (
     UNRECTIFIED_VERTICAL,
     empty_network_result,
+    fallback_kept,
     match_unrectified,
     rectified_canvas,
     shared_frame,
@@ -53,16 +55,6 @@ MATCHER_NAMES = frozenset(p.name for p in HopfieldMatcher.PARAMS)
 #: window's half-side grows with the fourth root of the pixel count beyond it
 #: (:func:`refine_radius`).
 REFINE_REFERENCE_PIXELS = 400_000
-
-#: ``match_stereo(rectified=None)``: a pair whose matches along its rows are few
-#: (:func:`~.diagnostics.still_few`) is matched as an unrectified pair too, and that match
-#: is kept when it found a geometry and more than this many times as many matches.
-UNRECTIFIED_FALLBACK_GAIN = 2.0
-#: ... and when the similarity that lines up its rows turns the right image by at most
-#: this many degrees and scales it by at most :data:`UNRECTIFIED_FALLBACK_SCALE` (or its
-#: inverse): two views side by side, not an object seen in another scene.
-UNRECTIFIED_FALLBACK_TURN = 15.0
-UNRECTIFIED_FALLBACK_SCALE = 1.25
 
 
 def split_parameters(params: dict, caller: str = "match_stereo") -> tuple[dict, dict]:
@@ -119,7 +111,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         pair that keeps few matches on its rows without such a sign (too far off for the
         check to see, or of unlike exposure) is matched as with False too, and that match
         kept when it finds a geometry of two views side by side and more matches
-        (:func:`fallback_kept`; the same warning). Only
+        (:func:`~.unrectified.fallback_kept`; the same warning). Only
         without ``fundamental_matrix``, a disparity range (``min_disparity`` or
         ``max_disparity``) and ``preset="paper"``: with any of them None is True.
         True: always the rows (the images must be rectified; a far-off pair gets the
@@ -185,6 +177,9 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     >>> sorted(set(res.passes.tolist())) in ([0], [0, 1])  # 0: network, 1: guided pass
     True
     """
+    call = dict(mask_left=mask_left, mask_right=mask_right, rectified=rectified,
+                fundamental_matrix=fundamental_matrix, record_energy=record_energy,
+                detector=detector, matcher=matcher, threads=threads, **params)
     det_params, match_params = split_parameters(params)
     for name, given, keywords in (("detector", detector, det_params),
                                   ("matcher", matcher, match_params)):
@@ -207,6 +202,11 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                                         optional=True)
     if rectified is not None and not isinstance(rectified, (bool, np.bool_)):
         raise InvalidTypeError(f"`rectified` must be None, True or False, got {rectified!r}")
+    channels = channels_kept(left, right, config.channel_clip_share, detector.getMaxPixels())
+    if channels is not None:  # a view that clips channels the other does not (method.md 4.9)
+        return match_both_greys(lambda gl, gr: match_stereo(gl, gr, **call),
+                                (detector.gray_image(left, "left"),
+                                 detector.gray_image(right, "right")), left, right, channels)
     unrectified_config = config
     if matcher is None and "vertical_threshold" not in match_params:
         unrectified_config = dataclasses.replace(config,
@@ -308,21 +308,6 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                           ("right", pts_r, gray_r, mask_right, window)])
     result.sharpness = sharpness
     return result
-
-
-def fallback_kept(kept_on_rows: int, other: StereoMatchResult) -> bool:
-    """Whether :func:`match_stereo` (``rectified=None``) keeps ``other``, the match of a
-    pair as an unrectified one, over the ``kept_on_rows`` matches along its rows: it found a
-    geometry, more than :data:`UNRECTIFIED_FALLBACK_GAIN` times as many matches, and a
-    pair side by side (:data:`UNRECTIFIED_FALLBACK_TURN`,
-    :data:`UNRECTIFIED_FALLBACK_SCALE`)."""
-    if other.fundamental_matrix is None or other.geometry is None:
-        return False
-    if len(other.query_idx) <= UNRECTIFIED_FALLBACK_GAIN * max(kept_on_rows, 1):
-        return False
-    degrees, scale = alignment_turn(other.geometry)
-    return (abs(degrees) <= UNRECTIFIED_FALLBACK_TURN
-            and 1 / UNRECTIFIED_FALLBACK_SCALE <= scale <= UNRECTIFIED_FALLBACK_SCALE)
 
 
 def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,

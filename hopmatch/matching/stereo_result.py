@@ -88,6 +88,11 @@ class StereoMatchResult:
         ``gain_field_tolerance``, the right view was mapped through it and the pair matched
         again, and where that found more matches they are returned
         (``tone_map.used``).
+    grey_channels : tuple of int or None
+        None: the views' grey levels were ``cv2.COLOR_BGR2GRAY``'s (or they were grey).
+        Otherwise the colour channels (0 B, 1 G, 2 R) the grey levels of both views were
+        made of: one view clipped the others (``channel_clip_share``;
+        :mod:`hopmatch.matching.channels`).
     """
 
     points_left: np.ndarray
@@ -110,6 +115,7 @@ class StereoMatchResult:
     geometry: EpipolarGeometry | None = None
     sharpness: SharpnessMatch | None = None
     tone_map: ToneMap | None = None
+    grey_channels: tuple | None = None
 
     def __post_init__(self):
         if self.passes is None:

@@ -46,6 +46,7 @@ from ..feature.sharpness import SharpnessMatch, equalise_sharpness
 from .disparity_range import coarse_extent
 from .geometry import (
     EpipolarGeometry,
+    alignment_turn,
     estimate_geometry,
     given_geometry,
     rectifying_homographies,
@@ -72,6 +73,15 @@ INTERPOLATION = cv2.INTER_LANCZOS4
 #: directions, and the aligned right image is resampled, so its rows are less certain
 #: than a rectified pair's (docs/pipelines.md, "Which call for which pair").
 UNRECTIFIED_VERTICAL = 0.75
+#: ``match_stereo(rectified=None)``: a pair whose matches along its rows are few
+#: (:func:`~.diagnostics.still_few`) is matched as an unrectified pair too, and that match
+#: is kept when it found a geometry and more than this many times as many matches.
+UNRECTIFIED_FALLBACK_GAIN = 2.0
+#: ... and when the similarity that lines up its rows turns the right image by at most
+#: this many degrees and scales it by at most :data:`UNRECTIFIED_FALLBACK_SCALE` (or its
+#: inverse): two views side by side, not an object seen in another scene.
+UNRECTIFIED_FALLBACK_TURN = 15.0
+UNRECTIFIED_FALLBACK_SCALE = 1.25
 #: Passes of the network: after each but the last, F is refitted on its matches and the
 #: search frame rebuilt from it.
 PASSES = 1
@@ -472,3 +482,18 @@ def empty_network_result(config) -> NetworkResult:
                          neuron_left=i32, neuron_right=i32, state=np.zeros(0, bool),
                          fields=f64, similarity=f64, n_interactions=0, iterations=0,
                          sweeps=0, converged=True, energy=0.0, config=config)
+
+
+def fallback_kept(kept_on_rows: int, other) -> bool:
+    """Whether ``match_stereo`` (``rectified=None``) keeps ``other`` (a StereoMatchResult),
+    the match of a pair as an unrectified one, over the ``kept_on_rows`` matches along its
+    rows: it found a geometry, more than :data:`UNRECTIFIED_FALLBACK_GAIN` times as many
+    matches, and a pair side by side (:data:`UNRECTIFIED_FALLBACK_TURN`,
+    :data:`UNRECTIFIED_FALLBACK_SCALE`)."""
+    if other.fundamental_matrix is None or other.geometry is None:
+        return False
+    if len(other.query_idx) <= UNRECTIFIED_FALLBACK_GAIN * max(kept_on_rows, 1):
+        return False
+    degrees, scale = alignment_turn(other.geometry)
+    return (abs(degrees) <= UNRECTIFIED_FALLBACK_TURN
+            and 1 / UNRECTIFIED_FALLBACK_SCALE <= scale <= UNRECTIFIED_FALLBACK_SCALE)

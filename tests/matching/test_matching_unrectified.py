@@ -307,28 +307,27 @@ def u_perturbation(angle):
 
 
 def test_the_fallback_keeps_only_a_side_by_side_geometry_with_more_matches(verged):
-    """stereo_match.fallback_kept: a geometry, more than UNRECTIFIED_FALLBACK_GAIN times
+    """unrectified.fallback_kept: a geometry, more than UNRECTIFIED_FALLBACK_GAIN times
     the matches along the rows, and a right image turned and scaled little."""
     import dataclasses
 
-    from hopmatch.matching import stereo_match as sm
     from hopmatch.matching.geometry import alignment_turn
 
     _, _, _, res = verged
     degrees, scale = alignment_turn(res.geometry)
-    assert abs(degrees) <= sm.UNRECTIFIED_FALLBACK_TURN
+    assert abs(degrees) <= u.UNRECTIFIED_FALLBACK_TURN
     n = len(res.query_idx)
-    assert sm.fallback_kept(0, res) and sm.fallback_kept(n // 3, res)
-    assert not sm.fallback_kept(n // 2, res)
-    assert not sm.fallback_kept(0, dataclasses.replace(res, fundamental_matrix=None,
-                                                       geometry=None))
+    assert u.fallback_kept(0, res) and u.fallback_kept(n // 3, res)
+    assert not u.fallback_kept(n // 2, res)
+    assert not u.fallback_kept(0, dataclasses.replace(res, fundamental_matrix=None,
+                                                      geometry=None))
     # the bootstrap's right points turned by 30 degrees about the origin: an object seen
     # turned in another scene, not the right view of a stereo pair
     c, s = np.cos(np.radians(30)), np.sin(np.radians(30))
     turned = (res.geometry.right_points.astype(np.float64) @ [[c, s], [-s, c]])
     geometry = dataclasses.replace(res.geometry, right_points=turned.astype(np.float32))
     assert abs(alignment_turn(geometry)[0]) > 25
-    assert not sm.fallback_kept(0, dataclasses.replace(res, geometry=geometry))
+    assert not u.fallback_kept(0, dataclasses.replace(res, geometry=geometry))
 
 
 def test_the_defaults_keep_the_rows_when_told_a_range_or_the_paper():
