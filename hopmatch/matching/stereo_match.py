@@ -148,7 +148,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     -------
     StereoMatchResult
         ``result.network.config`` holds the matcher parameters used (``max_disparity``
-        resolved). On a rectified pair (no ``fundamental_matrix``, images of one size), and
+        resolved). On a rectified pair (no ``fundamental_matrix``; rows of one height), and
         with ``rectified=False`` when the network searched the rows of the aligned images
         (``result.geometry.search == "aligned"``), two steps beyond the paper follow the
         network, each with its parameter
@@ -321,7 +321,7 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     :meth:`DericheMoravecDetector.detect_and_describe` returns them with ``keep_gray=True``
     (points may come from elsewhere, described on that detector's gradient); ``config``
     the matcher's parameters; ``fundamental`` None or a checked 3 x 3 matrix. Runs the
-    network, then (rectified pairs of one size) the guided pass and the refinement, these
+    network, then (rectified pairs) the guided pass and the refinement, these
     two in up to ``threads`` threads (None: :func:`hopmatch._threads.current_threads`).
     ``raise_unrectified``: raise :class:`~.diagnostics.LooksUnrectifiedError` where the
     rectification check would warn (:func:`match_pair`). ``warnings_later``: a list, for
@@ -363,7 +363,7 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
         network=net, keypoint_size=keypoint_size, timings=timings,
         match_timings={"network": t3 - t2, "guided": 0.0, "refine": 0.0},
     )
-    if fundamental is None and shape_l == shape_r and len(net.query_idx):
+    if fundamental is None and len(net.query_idx):  # rows of one height (checked above)
         result = beyond_network(result, (desc_l, desc_r), (g_l, g_r), (gray_l, gray_r),
                                 net.config, threads=threads)
     give_or_defer([functools.partial(check, kept=len(result.query_idx))

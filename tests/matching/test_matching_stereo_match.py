@@ -144,3 +144,22 @@ def test_a_pair_found_off_its_rows_after_the_tone_map_is_matched_as_unrectified(
     scores = score_matches(res.matched_left, back, disparity, thresholds=(1.0,))
     ok, known = correct_matches(scores, res.matched_left, back, 1.0)
     assert known.sum() > 1000 and (ok & known).sum() / known.sum() > 0.95
+
+
+def test_a_right_view_of_another_width_keeps_the_guided_pass_and_the_refinement():
+    """Rows of one height but a right view 30 px narrower (cropped on its right): a width
+    warning, and the same steps after the network as for the full pair (before
+    2026-12-05 the guided pass and the refinement ran only on images of one size), the
+    matches as right."""
+    from synthetic_pairs import texture
+
+    from hopmatch.errors import ImageSizeWarning
+
+    scene = texture(160, 260, seed=4, sigma=1.3).astype(np.uint8)
+    left, right = scene[:, 10:250], scene[:, 16:256]  # disparity 6
+    full = hopmatch.match_stereo(left, right, max_disparity=16)
+    with pytest.warns(ImageSizeWarning, match="240 px wide and `right` 210 px"):
+        cut = hopmatch.match_stereo(left, right[:, :210], max_disparity=16)
+    assert cut.refinement is not None and np.any(cut.passes == 1)
+    assert len(cut.query_idx) >= 0.8 * len(full.query_idx)
+    assert np.mean(np.abs(cut.disparities - 6.0) <= 0.5) > 0.98
