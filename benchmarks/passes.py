@@ -34,9 +34,10 @@ rectification that leaves the principal points apart gives them), ``gain0.7``
 corners), ``gamma1.5`` (``255 (I / 255) ** 1.5``), ``noise3`` (Gaussian noise of sigma 3
 grey levels, seed 0), ``blur1`` (a Gaussian blur of sigma 1 px), ``jpeg75`` (saved as a JPEG
 of quality 75 and read back), ``rot0.1`` (rotated 0.1 degree about the centre),
-``scale0.999``, or any combination joined by ``+``. ``lr-`` before ``noise``, ``blur`` or
-``jpeg`` (``lr-jpeg75``...) applies that change to the left image as well (its noise drawn
-with seed 1): the two views of one camera saved alike.
+``scale0.999``, ``crop0.05`` (its right-most 5 % of columns cut off: a right view of
+another width, applied last), or any combination joined by ``+``. ``lr-`` before
+``noise``, ``blur`` or ``jpeg`` (``lr-jpeg75``...) applies that change to the left image as
+well (its noise drawn with seed 1): the two views of one camera saved alike.
 
 ``--smoke``: motorcycle's centre crop only (figures mean nothing).
 
@@ -115,6 +116,9 @@ def perturbation(spec: str, shape) -> np.ndarray:
             r = np.vstack([cv2.getRotationMatrix2D(((w - 1) / 2, (h - 1) / 2), angle, scale),
                            [0, 0, 1]])
             m = r @ m
+        elif part.startswith("crop"):
+            if not 0.0 <= float(part[4:]) < 1.0:
+                raise SystemExit(f"crop takes a fraction of the width in [0, 1), got {part!r}")
         elif not part.removeprefix("lr-").startswith(GREY_CHANGES):
             raise SystemExit(f"unknown perturbation {part!r}")
         elif part.startswith("lr-") and not part.startswith(LEFT_TOO):
@@ -162,6 +166,10 @@ def perturb(right: np.ndarray, spec: str):
                              borderMode=cv2.BORDER_REFLECT)
     for part in spec.split("+"):
         out = grey_change(out, part.removeprefix("lr-"), seed=0)
+    for part in spec.split("+"):
+        if part.startswith("crop"):
+            out = np.ascontiguousarray(out[:, :out.shape[1] - int(round(float(part[4:])
+                                                                     * out.shape[1]))])
     return out, m
 
 

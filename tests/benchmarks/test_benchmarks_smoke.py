@@ -30,6 +30,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import SHARED_DATA
 
@@ -507,11 +508,28 @@ def test_passes_grey_changes_and_grid_smoke():
     grid = [re.search(r"left (\d):([\d.]+)/(\d):([\d.]+),", row).groups() for row in rows]
     assert grid[0][0] == grid[0][2] == "7" and min(float(grid[0][1]), float(grid[0][3])) > 1.1
     assert max(float(grid[1][1]), float(grid[1][3])) < 1.1, rows[1]
-    for bad in ("lr-gain0.5", "fog3"):
+    for bad in ("lr-gain0.5", "fog3", "crop1.5"):
         proc = subprocess.run([sys.executable, str(BENCHMARKS / "passes.py"), "--smoke",
                                "--perturb", bad], cwd=ROOT, capture_output=True, text=True,
                               timeout=TIMEOUT)
         assert proc.returncode != 0 and bad in proc.stderr, proc.stderr
+
+
+def test_passes_crop_cuts_the_right_view_only():
+    """``crop0.1`` cuts the right-most tenth of the right view's columns (a right view of
+    another width, docs/parameters.md): the pair still matches, with the width warning
+    and no point beyond the cut."""
+    sys.path.insert(0, str(BENCHMARKS))
+    try:
+        from passes import perturb
+    finally:
+        sys.path.remove(str(BENCHMARKS))
+    right = np.zeros((40, 100, 3), np.uint8)
+    cut, m = perturb(right, "dy1+crop0.1")
+    assert cut.shape == (40, 90, 3) and cut.flags.c_contiguous and m[1, 2] == 1.0
+    out = run_script("passes.py", "--perturb", "crop0.1")
+    assert_lines(out, r"## perturbation: crop0\.1; params defaults",
+                 r"motorcycle \| [1-9]\d+ \| \d+ \| 0\.9\d+ \| .*")
 
 
 def test_end_to_end_jpeg_smoke():
