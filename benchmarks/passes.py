@@ -35,7 +35,8 @@ corners), ``gamma1.5`` (``255 (I / 255) ** 1.5``), ``noise3`` (Gaussian noise of
 grey levels, seed 0), ``blur1`` (a Gaussian blur of sigma 1 px), ``jpeg75`` (saved as a JPEG
 of quality 75 and read back), ``rot0.1`` (rotated 0.1 degree about the centre),
 ``scale0.999``, ``crop0.05`` (its right-most 5 % of columns cut off: a right view of
-another width, applied last), or any combination joined by ``+``. ``lr-`` before
+another width, applied last), ``top6`` (its top 6 rows cut off: a right view of another
+height, applied last), or any combination joined by ``+``. ``lr-`` before
 ``noise``, ``blur`` or ``jpeg`` (``lr-jpeg75``...) applies that change to the left image as
 well (its noise drawn with seed 1): the two views of one camera saved alike.
 
@@ -119,6 +120,9 @@ def perturbation(spec: str, shape) -> np.ndarray:
         elif part.startswith("crop"):
             if not 0.0 <= float(part[4:]) < 1.0:
                 raise SystemExit(f"crop takes a fraction of the width in [0, 1), got {part!r}")
+        elif part.startswith("top"):
+            if not 0 <= int(part[3:]) < h:
+                raise SystemExit(f"top takes a number of rows below the height, got {part!r}")
         elif not part.removeprefix("lr-").startswith(GREY_CHANGES):
             raise SystemExit(f"unknown perturbation {part!r}")
         elif part.startswith("lr-") and not part.startswith(LEFT_TOO):
@@ -170,6 +174,9 @@ def perturb(right: np.ndarray, spec: str):
         if part.startswith("crop"):
             out = np.ascontiguousarray(out[:, :out.shape[1] - int(round(float(part[4:])
                                                                      * out.shape[1]))])
+        elif part.startswith("top"):  # rows cut off the top: right y smaller by that much
+            out = np.ascontiguousarray(out[int(part[3:]):])
+            m = np.array([[1, 0, 0], [0, 1, -float(part[3:])], [0, 0, 1]]) @ m
     return out, m
 
 

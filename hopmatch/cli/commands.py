@@ -397,10 +397,16 @@ def match(ctx, left, right, out, fundamental_file, unrectified, fmt, no_draw, pl
     pixels = detector.getMaxPixels()  # images over it are refused from their header
     img_l, img_r = guard(None, labels, lambda: (read_image(left, pixels),
                                                 read_image(right, pixels)))
-    if fundamental is None and not unrectified and img_l.shape[0] != img_r.shape[0]:
+    # two heights: the defaults match the pair as --unrectified does (match_stereo warns);
+    # a range or the paper's preset searches rows, which two heights do not have
+    rows_only = (given.get("max_disparity") is not None or "min_disparity" in given
+                 or given.get("preset") == "paper")
+    if (fundamental is None and not unrectified and rows_only
+            and img_l.shape[0] != img_r.shape[0]):
         raise CLIError(right, f"height {img_r.shape[0]} differs from the height of {left} "
-                              f"({img_l.shape[0]}); LEFT and RIGHT must be a rectified pair "
-                              "(or give --fundamental-matrix FILE, or --unrectified)")
+                              f"({img_l.shape[0]}); with a disparity range or the paper's "
+                              "preset LEFT and RIGHT must be a rectified pair (or give "
+                              "--fundamental-matrix FILE, or --unrectified)")
     t_read = time.perf_counter() - t_start
     outputs = Outputs(out)
     _open(outputs, labels)

@@ -106,8 +106,9 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         of F (its matches only: no guided pass or refinement).
     rectified : bool or None
         None (default): the pair's rows are searched, as for True, unless the rectification
-        check (docs/robustness.md) finds the pair far from rectified; it is then matched as
-        with False, and an :class:`~hopmatch.errors.UnrectifiedPairWarning` says so. A
+        check (docs/robustness.md) finds the pair far from rectified, or the images differ
+        in height; it is then matched as with False, and an
+        :class:`~hopmatch.errors.UnrectifiedPairWarning` says so. A
         pair that keeps few matches on its rows without such a sign (too far off for the
         check to see, or of unlike exposure) is matched as with False too, and that match
         kept when it finds a geometry of two views side by side and more matches
@@ -233,9 +234,16 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
             return aligned
 
     given = left, right  # an unrectified pair is equalised after its warp (method.md 4.6)
-    left, right, sharpness = equalise_sharpness(detector.gray_image(left, "left"),
-                                                detector.gray_image(right, "right"),
-                                                config.sharpness_ratio)
+    left, right = detector.gray_image(left, "left"), detector.gray_image(right, "right")
+    if may_switch and left.shape[0] != right.shape[0]:  # rows of two heights: no rows to search
+        warn(f"`left` has {left.shape[0]} rows and `right` {right.shape[0]}, so they are not "
+             "a rectified pair: matched as an unrectified pair, its epipolar geometry "
+             "estimated from the images (rectified=False; result.fundamental_matrix, "
+             "result.geometry)", UnrectifiedPairWarning)
+        with using_threads(threads):
+            return _match_unrectified(*given, detector, unrectified_config, None,
+                                      mask_left, mask_right, record_energy)
+    left, right, sharpness = equalise_sharpness(left, right, config.sharpness_ratio)
 
     def detect(image, mask, side):
         t0 = time.perf_counter()

@@ -517,8 +517,8 @@ def test_passes_grey_changes_and_grid_smoke():
 
 def test_passes_crop_cuts_the_right_view_only():
     """``crop0.1`` cuts the right-most tenth of the right view's columns (a right view of
-    another width, docs/parameters.md): the pair still matches, with the width warning
-    and no point beyond the cut."""
+    another width, docs/robustness.md), ``top6`` its top 6 rows (the right points then
+    map back 6 px lower): the pair still matches."""
     sys.path.insert(0, str(BENCHMARKS))
     try:
         from passes import perturb
@@ -527,8 +527,12 @@ def test_passes_crop_cuts_the_right_view_only():
     right = np.zeros((40, 100, 3), np.uint8)
     cut, m = perturb(right, "dy1+crop0.1")
     assert cut.shape == (40, 90, 3) and cut.flags.c_contiguous and m[1, 2] == 1.0
-    out = run_script("passes.py", "--perturb", "crop0.1")
+    cut, m = perturb(right, "dy1+top6")  # rows cut off the top: y smaller by 6 after
+    assert cut.shape == (34, 100, 3) and m[1, 2] == -5.0
+    out = run_script("passes.py", "--perturb", "crop0.1", "top6")
     assert_lines(out, r"## perturbation: crop0\.1; params defaults",
+                 r"motorcycle \| [1-9]\d+ \| \d+ \| 0\.9\d+ \| .*",
+                 r"## perturbation: top6; params defaults",
                  r"motorcycle \| [1-9]\d+ \| \d+ \| 0\.9\d+ \| .*")
 
 

@@ -194,9 +194,19 @@ def test_bad_image(pair, tmp_path, side, key, words):
     bad = pair.get(key, tmp_path / "missing.png")
     left, right = (bad, pair["right"]) if side == "left" else (pair["left"], bad)
     out = tmp_path / "out"
-    res = run("match", left, right, "--out", out)
+    res = run("match", left, right, "--out", out, *(("--max-disparity", 12)
+                                                      if key == "short" else ()))
     assert_bad_input(res, str(bad), words)
     assert not out.exists()
+
+
+def test_views_of_two_heights_are_matched_as_unrectified_by_the_defaults(pair, tmp_path):
+    """Without a range the pair of two heights is matched as --unrectified matches it
+    (the warning line says so; fundamental_matrix.txt when a geometry was found)."""
+    res = run("match", pair["left"], pair["short"], "--out", tmp_path / "o")
+    assert res.returncode == 0, res.stderr
+    assert re.search(r"hopmatch: warning: \S*left.png has 120 rows and \S*short.png 100, "
+                     r"so they are not a rectified pair", res.stderr), res.stderr
 
 
 def test_warmup_prints_its_time_and_where_the_kernels_went():

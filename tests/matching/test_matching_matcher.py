@@ -334,8 +334,10 @@ def test_match_stereo(pair):
     assert res.matched_left.dtype == np.float32 and res.disparities.dtype == np.float32
     assert all(isinstance(k, cv2.KeyPoint) for k in res.keypoints_left[:5])
     assert set(res.timings) == {"detect_left", "detect_right", "match"}
+    # rows of two heights: no rows to search with a range (the defaults match such a pair
+    # as an unrectified one: test_matching_unrectified.py)
     with pytest.raises(InvalidArgumentError, match="same height"):
-        hopmatch.match_stereo(pair[0], pair[1][:-4])
+        hopmatch.match_stereo(pair[0], pair[1][:-4], max_disparity=20)
     with pytest.raises(InvalidArgumentError, match="unknown parameter"):
         hopmatch.match_stereo(pair[0], pair[1], tehta=3)
 

@@ -432,3 +432,23 @@ def test_the_refinement_window_follows_the_given_images_not_the_canvas(monkeypat
     res = hopmatch.match_stereo(left, warped, rectified=False)
     assert res.geometry.search == "aligned" and res.refinement is not None
     assert shapes == [left.shape[:2]]
+
+
+def test_the_defaults_match_views_of_two_heights_as_an_unrectified_pair():
+    """Rows of two heights (the right view less its top 6 rows) are no rectified pair:
+    with no range given the pair is matched as rectified=False, with a warning that says
+    why, and the matches are right (6 px lower in the left view); with a range, as
+    before, an error."""
+    from synthetic_pairs import texture
+
+    from hopmatch.errors import UnrectifiedPairWarning
+
+    scene = texture(200, 280, seed=5, sigma=1.3).astype(np.uint8)
+    left, right = scene[10:190, 10:260], scene[16:190, 16:266]  # d = 6, yr = yl - 6
+    with pytest.warns(UnrectifiedPairWarning, match="180 rows and `right` 174"):
+        res = hopmatch.match_stereo(left, right)
+    assert res.fundamental_matrix is not None and len(res.query_idx) > 200
+    off = res.matched_left - res.matched_right
+    assert np.mean(np.hypot(off[:, 0] - 6.0, off[:, 1] - 6.0) <= 1.0) > 0.97
+    with pytest.raises(InvalidArgumentError, match="same height"):
+        hopmatch.match_stereo(left, right, max_disparity=16)
