@@ -29,8 +29,9 @@ GREY_WEIGHTS = (0.114, 0.587, 0.299)
 def _top_share(image: np.ndarray, channel: int, top: int) -> float:
     """The share of ``image``'s pixels whose ``channel`` is ``top`` (a histogram: no copy
     of the image)."""
-    count = cv2.calcHist([image], [channel], None, [1], [top, top + 1])[0, 0]
-    return float(count) / (image.shape[0] * image.shape[1])
+    # (1, 1) from OpenCV 4, (1,) from OpenCV 5: summed, either is the count
+    count = float(cv2.calcHist([image], [channel], None, [1], [top, top + 1]).sum())
+    return count / (image.shape[0] * image.shape[1])
 
 
 def channels_kept(left, right, share, max_pixels: int) -> tuple[int, ...] | None:
