@@ -42,8 +42,8 @@ def channels_kept(left, right, share, max_pixels: int) -> tuple[int, ...] | None
     (uint8 or uint16, whose top level is 255 or 65535), of at most ``max_pixels`` pixels
     each, and one or two of the channels are at their top level on at least ``share`` of
     one view's pixels more than of the other's: the others are kept. ``share`` None: never.
-    Anything else (grey views, floats, bad input) gets None, and the one grey version the
-    caller makes of it (its checks raise on bad input as they would without this step).
+    Anything else (grey views, floats, bad input) gets None: the caller goes on as without
+    this step, and its own checks refuse bad input.
     """
     if share is None:
         return None
