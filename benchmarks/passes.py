@@ -38,7 +38,9 @@ of quality 75 and read back), ``rot0.1`` (rotated 0.1 degree about the centre),
 another width, applied last), ``top6`` (its top 6 rows cut off: a right view of another
 height, applied last), or any combination joined by ``+``. ``lr-`` before
 ``noise``, ``blur`` or ``jpeg`` (``lr-jpeg75``...) applies that change to the left image as
-well (its noise drawn with seed 1): the two views of one camera saved alike.
+well (its noise drawn with seed 1): the two views of one camera saved alike. ``left-``
+before ``dy``, ``dx``, ``rot`` or ``scale`` (``left-rot3``) moves the left view instead,
+its points mapped back before scoring too.
 
 ``--smoke``: motorcycle's centre crop only (figures mean nothing).
 
@@ -107,7 +109,13 @@ def perturbation(spec: str, shape) -> np.ndarray:
     h, w = shape[:2]
     m = np.eye(3)
     for part in spec.split("+"):
-        if part.startswith("dy"):
+        if not part:  # no perturbation
+            continue
+        if part.startswith("left-"):  # the left view's (:func:`perturb_left`)
+            if not part[5:].startswith(("dy", "dx", "rot", "scale")):
+                raise SystemExit(f"left- applies to dy, dx, rot and scale only, got {part!r}")
+            perturbation(part[5:], shape)
+        elif part.startswith("dy"):
             m = np.array([[1, 0, 0], [0, 1, float(part[2:])], [0, 0, 1]]) @ m
         elif part.startswith("dx"):
             m = np.array([[1, 0, float(part[2:])], [0, 1, 0], [0, 0, 1]]) @ m
@@ -180,12 +188,19 @@ def perturb(right: np.ndarray, spec: str):
     return out, m
 
 
-def perturb_left(left: np.ndarray, spec: str) -> np.ndarray:
-    """The left image with the ``lr-`` parts of ``spec`` applied (noise with seed 1)."""
+def perturb_left(left: np.ndarray, spec: str):
+    """``(the left image with the left- and lr- parts of spec applied, 3 x 3 matrix
+    mapping original left (x, y) to it)``: ``left-rot3`` (``left-dy2``...) moves the left
+    view as ``rot3`` moves the right one; ``lr-`` grey changes draw their noise with seed 1."""
+    m = perturbation("+".join(p[5:] for p in spec.split("+") if p.startswith("left-")),
+                     left.shape)
+    if not np.allclose(m, np.eye(3)):
+        left = cv2.warpAffine(left, m[:2], left.shape[1::-1], flags=cv2.INTER_LINEAR,
+                              borderMode=cv2.BORDER_REFLECT)
     for part in spec.split("+"):
         if part.startswith("lr-"):
             left = grey_change(left, part.removeprefix("lr-"), seed=1)
-    return left
+    return left, m
 
 
 def unmap(points: np.ndarray, m: np.ndarray) -> np.ndarray:
@@ -304,14 +319,14 @@ def main(argv=None) -> int:
         for n in names:
             scene = smoke_scene(datasets.load(n)) if args.smoke else datasets.load(n)
             right, m = perturb(scene.right, spec) if spec else (scene.right, np.eye(3))
-            left = perturb_left(scene.left, spec)
+            left, m_left = perturb_left(scene.left, spec)
             with warnings.catch_warnings():  # a 64 x 64 crop, to compile: warns of nothing real
                 warnings.simplefilter("ignore", hopmatch.errors.HopmatchWarning)
                 hopmatch.match_stereo(left[:64, :64], right[:64, :64], **params)
             t0 = time.perf_counter()
             res = hopmatch.match_stereo(left, right, **params)
             secs = time.perf_counter() - t0
-            left_pts, right_pts = res.matched_left, unmap(res.matched_right, m)
+            left_pts, right_pts = unmap(res.matched_left, m_left), unmap(res.matched_right, m)
             k, c, p, med = score(left_pts, right_pts, scene.disparity)
             sc = score_matches(left_pts, right_pts, scene.disparity, thresholds=(1.0,))
             tot["m"] += k

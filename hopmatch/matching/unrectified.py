@@ -56,6 +56,7 @@ from .geometry import (
 )
 from .network import NetworkResult, PairInfo, match_pair, run_hopfield_network
 from .tone import ToneMap, rematch_through_map
+from .vertical import PLANE_ITERATIONS, PLANE_TUKEY
 
 #: A range in the search frame: an extent widened on each side by this fraction of its
 #: span, plus 1 % of the width and 2 px ...
@@ -102,6 +103,13 @@ ROW_FACTOR = 1.5
 ROW_PIXELS = 0.5
 RECTIFY_LIMIT = 0.1
 SEARCH_ORDER = ("aligned", "rectified", "epipolar")
+#: ... and the aligned rows also need an offset that drifts by at most this many px with
+#: the disparity across the inliers, beyond a plane in their position (:func:`row_drift`):
+#: when the left view is the one turned, or both are, ``dy`` grows with the disparity
+#: (``d sin(angle)``), which a similarity of the right image cannot take out and a
+#: median hides. Rows that drift more are searched only when no rectification near the
+#: identity is found (docs/pipelines.md, "A left view turned").
+ROW_DRIFT = 0.5
 
 
 def shift_x(shift: float) -> np.ndarray:
@@ -183,6 +191,37 @@ def near_identity(maps, size) -> bool:
     return True
 
 
+def row_drift(points: np.ndarray, disparity: np.ndarray, dy: np.ndarray) -> float:
+    """How much ``dy`` changes with the disparity across the points (px), beyond what a
+    plane in their position explains: the disparity's coefficient ``e`` of ``dy = a + b x
+    + c y + e d``, fitted robustly (Tukey's biweight, as
+    :func:`~hopmatch.matching.vertical.fit_row_offset`: a few gross outliers among
+    correspondences must not make a drift), times the span from the 5th to the 95th
+    percentile of the disparities less their own least-squares plane in (x, y) (0 for
+    fewer than 8 points, or disparities that are such a plane: a slanted surface's,
+    whose ``dy`` the plane vertical model follows anyway)."""
+    n = len(disparity)
+    if n < 8:
+        return 0.0
+    position = np.c_[np.ones(n), points - points.mean(axis=0)]
+    rd = disparity - position @ np.linalg.lstsq(position, disparity, rcond=None)[0]
+    if not float(rd @ rd) > 1e-9 * n:
+        return 0.0
+    design = np.c_[position, rd]
+    coef = np.array([float(np.median(dy)), 0.0, 0.0, 0.0])
+    for _ in range(PLANE_ITERATIONS):
+        res = dy - design @ coef
+        scale = max(1.4826 * float(np.median(np.abs(res - np.median(res)))), 1e-3)
+        r = res / (PLANE_TUKEY * scale)
+        sw = np.sqrt(np.where(np.abs(r) < 1.0, (1.0 - r * r) ** 2, 0.0))
+        fit, _, rank, _ = np.linalg.lstsq(design * sw[:, None], dy * sw, rcond=None)
+        if rank < 4:
+            return 0.0
+        coef = fit
+    lo, hi = np.percentile(rd, [5.0, 95.0])
+    return float(coef[3]) * float(hi - lo)
+
+
 def search_frame(geometry, to_aligned, size):
     """``(H1, H2, (lo, hi), mode)``: where the network searches (see :data:`SEARCH_ORDER`).
 
@@ -192,6 +231,7 @@ def search_frame(geometry, to_aligned, size):
     one of ``'rectified'``, ``'aligned'``, ``'epipolar'``."""
     il = geometry.left_points[geometry.inliers]
     ia = transform_points(geometry.right_points[geometry.inliers], to_aligned)
+    drifting = False  # aligned rows that line the inliers up but drift with the disparity
     for mode in SEARCH_ORDER:
         if mode == "rectified":
             to_right = np.linalg.inv(to_aligned)
@@ -203,11 +243,19 @@ def search_frame(geometry, to_aligned, size):
             if not near_identity((H1, H2), size):
                 continue
             rl, ra = transform_points(il, H1), transform_points(ia, H2)
-        elif mode == "aligned":
-            row_error = float(np.median(np.abs(il[:, 1].astype(np.float64) - ia[:, 1])))
-            if row_error > max(ROW_FACTOR * geometry.median_error, ROW_PIXELS):
+        elif mode == "aligned" or (mode == "epipolar" and drifting):
+            # (drifting rows, when no rectification near the identity is found, are
+            # still searched: the band would lose the guided pass and the refinement)
+            dy = il[:, 1].astype(np.float64) - ia[:, 1]
+            if float(np.median(np.abs(dy))) > max(ROW_FACTOR * geometry.median_error,
+                                                  ROW_PIXELS):
+                continue
+            if mode == "aligned" and abs(row_drift(il.astype(np.float64), il[:, 0].astype(
+                    np.float64) - ia[:, 0], dy)) > ROW_DRIFT:
+                drifting = True
                 continue
             H1, H2, rl, ra = np.eye(3), np.eye(3), il, ia
+            mode = "aligned"
         else:
             H1, H2, rl, ra = None, np.eye(3), il, ia
         lo, hi, shift = inlier_range(rl, ra, size[0])

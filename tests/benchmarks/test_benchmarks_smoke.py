@@ -529,6 +529,13 @@ def test_passes_crop_cuts_the_right_view_only():
     assert cut.shape == (40, 90, 3) and cut.flags.c_contiguous and m[1, 2] == 1.0
     cut, m = perturb(right, "dy1+top6")  # rows cut off the top: y smaller by 6 after
     assert cut.shape == (34, 100, 3) and m[1, 2] == -5.0
+    # left- moves the left view only, and says how
+    from passes import perturb_left
+    left = np.zeros((40, 100), np.uint8)
+    left[10:20, 30:40] = 255
+    moved, m_left = perturb_left(left, "left-dy2+rot1")
+    assert m_left[1, 2] == 2.0 and np.array_equal(moved[12:22, 30:40], left[10:20, 30:40])
+    assert np.array_equal(perturb(right, "left-dy2")[1], np.eye(3))
     out = run_script("passes.py", "--perturb", "crop0.1", "top6")
     assert_lines(out, r"## perturbation: crop0\.1; params defaults",
                  r"motorcycle \| [1-9]\d+ \| \d+ \| 0\.9\d+ \| .*",
