@@ -6,7 +6,8 @@ Run: ``python benchmarks/clipping.py [--gains 1.15 1.3] [--scenes NAME ...] [--s
 For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
 scene there; defaults, as ``benchmarks/passes.py`` runs them) and every gain g, the right
 image is multiplied by g and clipped to 8 bits (``passes.py --perturb gainG``). Printed per
-scene and gain: the fraction of the right image's pixels that clip (in any colour channel);
+scene and gain: the fraction of the right image's pixels that clip (in any colour channel,
+and in each of B, G and R);
 the correct matches (1 px, :func:`hopmatch.evaluate.score_matches`) of the unperturbed pair;
 of those, how many
 keep a right window (the detector's descriptor size) with under 5 % clipped pixels at gain g
@@ -55,9 +56,9 @@ def main(argv=None) -> int:
     single_thread()
     names = ["motorcycle"] if args.smoke else (args.scenes or datasets.list_scenes())
     window = hopmatch.DericheMoravecDetector().getDescriptorSize()
-    print("| scene | gain | right pixels clipped | correct unperturbed | of them unclipped | "
-          "correct clipped |")
-    print("|---|---:|---:|---:|---:|---:|")
+    print("| scene | gain | right pixels clipped | B / G / R | correct unperturbed | "
+          "of them unclipped | correct clipped |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
     tot = np.zeros((len(args.gains), 3), dtype=np.int64)
     for n in names:
         scene = datasets.load(n)
@@ -72,8 +73,10 @@ def main(argv=None) -> int:
         y = np.clip(np.round(right_pts[:, 1]).astype(int), 0, h - 1)
         for k, g in enumerate(args.gains):
             right, _ = perturb(scene.right, f"gain{g:g}")
-            clipped = (right >= 255) & (scene.right < 255)  # in any colour channel
-            clipped = clipped if clipped.ndim == 2 else clipped.any(axis=2)
+            clipped = (right >= 255) & (scene.right < 255)
+            channels = ("-" if clipped.ndim == 2 else  # each colour channel's share
+                        " / ".join(f"{clipped[..., c].mean():.0%}" for c in range(3)))
+            clipped = clipped if clipped.ndim == 2 else clipped.any(axis=2)  # any channel
             share = cv2.blur(clipped.astype(np.float32), (window, window))
             unclipped = ok & (share[y, x] < CLIPPED_WINDOW)
             with warnings.catch_warnings():
@@ -82,8 +85,8 @@ def main(argv=None) -> int:
                                         scene.disparity)
             cells = (int(ok.sum()), int(unclipped.sum()), int(ok_g.sum()))
             tot[k] += cells
-            print(f"| {n} | {g:g} | {clipped.mean():.1%} | " + " | ".join(map(str, cells))
-                  + " |", flush=True)
+            print(f"| {n} | {g:g} | {clipped.mean():.1%} | {channels} | "
+                  + " | ".join(map(str, cells)) + " |", flush=True)
     for k, g in enumerate(args.gains):
         print(f"pooled, gain {g:g}: {tot[k, 0]} correct unperturbed, {tot[k, 1]} of them with "
               f"an unclipped right window, {tot[k, 2]} correct on the clipped pair")

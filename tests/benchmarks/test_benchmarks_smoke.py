@@ -434,12 +434,12 @@ def test_recall_losses_smoke():
 def test_clipping_smoke():
     """docs/robustness.md quotes its table's columns and pooled lines (clipped exposures)."""
     lines = run_script("clipping.py").splitlines()
-    assert lines[0] == ("| scene | gain | right pixels clipped | correct unperturbed | of "
-                        "them unclipped | correct clipped |")
+    assert lines[0] == ("| scene | gain | right pixels clipped | B / G / R | correct "
+                        "unperturbed | of them unclipped | correct clipped |")
     for row in lines[2:4]:
-        assert re.fullmatch(r"\| motorcycle \| [\d.]+ \| [\d.]+% \| \d+ \| \d+ \| \d+ \|",
-                            row), row
-        unperturbed, unclipped = (int(v) for v in row.split(" | ")[3:5])
+        assert re.fullmatch(r"\| motorcycle \| [\d.]+ \| [\d.]+% \| \d+% / \d+% / \d+% \| "
+                            r"\d+ \| \d+ \| \d+ \|", row), row
+        unperturbed, unclipped = (int(v) for v in row.split(" | ")[4:6])
         assert 0 < unclipped <= unperturbed, row
     assert re.fullmatch(r"pooled, gain 1.3: \d+ correct unperturbed, \d+ of them with an "
                         r"unclipped right window, \d+ correct on the clipped pair", lines[5])
