@@ -56,7 +56,7 @@ from .geometry import (
 )
 from .network import NetworkResult, PairInfo, match_pair, run_hopfield_network
 from .tone import ToneMap, rematch_through_map
-from .vertical import PLANE_ITERATIONS, PLANE_TUKEY
+from .vertical import robust_fit
 
 #: A range in the search frame: an extent widened on each side by this fraction of its
 #: span, plus 1 % of the width and 2 px ...
@@ -194,8 +194,8 @@ def near_identity(maps, size) -> bool:
 def row_drift(points: np.ndarray, disparity: np.ndarray, dy: np.ndarray) -> float:
     """How much ``dy`` changes with the disparity across the points (px), beyond what a
     plane in their position explains: the disparity's coefficient ``e`` of ``dy = a + b x
-    + c y + e d``, fitted robustly (Tukey's biweight, as
-    :func:`~hopmatch.matching.vertical.fit_row_offset`: a few gross outliers among
+    + c y + e d``, fitted robustly (:func:`~hopmatch.matching.vertical.robust_fit`, as
+    the vertical model is: a few gross outliers among
     correspondences must not make a drift), times the span from the 5th to the 95th
     percentile of the disparities less their own least-squares plane in (x, y) (0 for
     fewer than 8 points, or disparities that are such a plane: a slanted surface's,
@@ -207,17 +207,9 @@ def row_drift(points: np.ndarray, disparity: np.ndarray, dy: np.ndarray) -> floa
     rd = disparity - position @ np.linalg.lstsq(position, disparity, rcond=None)[0]
     if not float(rd @ rd) > 1e-9 * n:
         return 0.0
-    design = np.c_[position, rd]
-    coef = np.array([float(np.median(dy)), 0.0, 0.0, 0.0])
-    for _ in range(PLANE_ITERATIONS):
-        res = dy - design @ coef
-        scale = max(1.4826 * float(np.median(np.abs(res - np.median(res)))), 1e-3)
-        r = res / (PLANE_TUKEY * scale)
-        sw = np.sqrt(np.where(np.abs(r) < 1.0, (1.0 - r * r) ** 2, 0.0))
-        fit, _, rank, _ = np.linalg.lstsq(design * sw[:, None], dy * sw, rcond=None)
-        if rank < 4:
-            return 0.0
-        coef = fit
+    coef = robust_fit(np.c_[position, rd], dy, np.array([float(np.median(dy)), 0.0, 0.0, 0.0]))
+    if coef is None:
+        return 0.0
     lo, hi = np.percentile(rd, [5.0, 95.0])
     return float(coef[3]) * float(hi - lo)
 
@@ -243,19 +235,19 @@ def search_frame(geometry, to_aligned, size):
             if not near_identity((H1, H2), size):
                 continue
             rl, ra = transform_points(il, H1), transform_points(ia, H2)
-        elif mode == "aligned" or (mode == "epipolar" and drifting):
-            # (drifting rows, when no rectification near the identity is found, are
-            # still searched: the band would lose the guided pass and the refinement)
+        elif mode == "aligned":
             dy = il[:, 1].astype(np.float64) - ia[:, 1]
             if float(np.median(np.abs(dy))) > max(ROW_FACTOR * geometry.median_error,
                                                   ROW_PIXELS):
                 continue
-            if mode == "aligned" and abs(row_drift(il.astype(np.float64), il[:, 0].astype(
-                    np.float64) - ia[:, 0], dy)) > ROW_DRIFT:
+            if abs(row_drift(il.astype(np.float64), il[:, 0].astype(np.float64) - ia[:, 0],
+                             dy)) > ROW_DRIFT:
                 drifting = True
                 continue
             H1, H2, rl, ra = np.eye(3), np.eye(3), il, ia
-            mode = "aligned"
+        elif drifting:  # no rectification near the identity: the drifting rows still, as
+            # the band would lose the guided pass and the refinement
+            H1, H2, rl, ra, mode = np.eye(3), np.eye(3), il, ia, "aligned"
         else:
             H1, H2, rl, ra = None, np.eye(3), il, ia
         lo, hi, shift = inlier_range(rl, ra, size[0])

@@ -98,21 +98,35 @@ def fit_row_offset(left: np.ndarray, dy: np.ndarray, weights=None) -> RowOffset:
         return base
     cx, cy = (float(v) for v in np.median(p, axis=0))
     design = np.c_[np.ones(len(dy)), p[:, 0] - cx, p[:, 1] - cy]
-    coef = np.array([base.a, 0.0, 0.0])
+    coef = robust_fit(design, dy, np.array([base.a, 0.0, 0.0]), prior)
+    if coef is None:
+        return base
+    return RowOffset(float(coef[0]), float(coef[1]), float(coef[2]), cx, cy)
+
+
+def robust_fit(design: np.ndarray, values: np.ndarray, start: np.ndarray,
+               prior: np.ndarray | None = None) -> np.ndarray | None:
+    """The coefficients of ``values ~ design`` by iteratively reweighted least squares
+    with Tukey's biweight (:data:`PLANE_TUKEY` robust standard deviations, from the MAD of
+    the residuals), :data:`PLANE_ITERATIONS` rounds from ``start``, the weights times
+    ``prior`` when given; None when the weighted design loses rank (fewer independent
+    rows than columns): the fit of :func:`fit_row_offset`, and of
+    :func:`hopmatch.matching.unrectified.row_drift`."""
+    coef = start
     for _ in range(PLANE_ITERATIONS):
-        res = dy - design @ coef
+        res = values - design @ coef
         scale = 1.4826 * float(_median(np.abs(res - _median(res))))
         scale = max(scale, 1e-3)
         r = res / (PLANE_TUKEY * scale)
-        w = prior * np.where(np.abs(r) < 1.0, (1.0 - r * r) ** 2, 0.0)
-        sw = np.sqrt(w)
+        w = np.where(np.abs(r) < 1.0, (1.0 - r * r) ** 2, 0.0)
+        sw = np.sqrt(w if prior is None else prior * w)
         # lstsq's rank uses matrix_rank's tolerance (eps * max(M, N) * the largest
         # singular value): one SVD per iteration answers both.
-        fit, _, rank, _ = np.linalg.lstsq(design * sw[:, None], dy * sw, rcond=None)
-        if rank < 3:
-            return base
+        fit, _, rank, _ = np.linalg.lstsq(design * sw[:, None], values * sw, rcond=None)
+        if rank < design.shape[1]:
+            return None
         coef = fit
-    return RowOffset(float(coef[0]), float(coef[1]), float(coef[2]), cx, cy)
+    return coef
 
 
 #: The row-offset prior (:func:`row_offset_prior`): left points sampled first, and at most
