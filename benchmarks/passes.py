@@ -40,7 +40,8 @@ height, applied last), or any combination joined by ``+``. ``lr-`` before
 ``noise``, ``blur`` or ``jpeg`` (``lr-jpeg75``...) applies that change to the left image as
 well (its noise drawn with seed 1): the two views of one camera saved alike. ``left-``
 before ``dy``, ``dx``, ``rot`` or ``scale`` (``left-rot3``) moves the left view instead,
-its points mapped back before scoring too.
+its points mapped back before scoring too; before a grey-level change (``left-gain1.3``)
+it changes the left view instead (noise with seed 1).
 
 ``--smoke``: motorcycle's centre crop only (figures mean nothing).
 
@@ -112,8 +113,9 @@ def perturbation(spec: str, shape) -> np.ndarray:
         if not part:  # no perturbation
             continue
         if part.startswith("left-"):  # the left view's (:func:`perturb_left`)
-            if not part[5:].startswith(("dy", "dx", "rot", "scale")):
-                raise SystemExit(f"left- applies to dy, dx, rot and scale only, got {part!r}")
+            if not part[5:].startswith(("dy", "dx", "rot", "scale") + GREY_CHANGES):
+                raise SystemExit(f"left- applies to dy, dx, rot, scale and the grey-level "
+                                 f"changes only, got {part!r}")
             perturbation(part[5:], shape)
         elif part.startswith("dy"):
             m = np.array([[1, 0, 0], [0, 1, float(part[2:])], [0, 0, 1]]) @ m
@@ -191,15 +193,17 @@ def perturb(right: np.ndarray, spec: str):
 def perturb_left(left: np.ndarray, spec: str):
     """``(the left image with the left- and lr- parts of spec applied, 3 x 3 matrix
     mapping original left (x, y) to it)``: ``left-rot3`` (``left-dy2``...) moves the left
-    view as ``rot3`` moves the right one; ``lr-`` grey changes draw their noise with seed 1."""
+    view as ``rot3`` moves the right one, ``left-gain1.3`` (``left-`` before a grey-level
+    change) changes the left view alone; ``lr-`` and ``left-`` grey changes draw their
+    noise with seed 1."""
     m = perturbation("+".join(p[5:] for p in spec.split("+") if p.startswith("left-")),
                      left.shape)
     if not np.allclose(m, np.eye(3)):
         left = cv2.warpAffine(left, m[:2], left.shape[1::-1], flags=cv2.INTER_LINEAR,
                               borderMode=cv2.BORDER_REFLECT)
     for part in spec.split("+"):
-        if part.startswith("lr-"):
-            left = grey_change(left, part.removeprefix("lr-"), seed=1)
+        if part.startswith(("lr-", "left-")):
+            left = grey_change(left, part.removeprefix("lr-").removeprefix("left-"), seed=1)
     return left, m
 
 
