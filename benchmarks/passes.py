@@ -11,7 +11,9 @@ when the result has them (0 network, 1 guided), the median absolute disparity er
 correct matches (ground truth interpolated bilinearly at the sub-pixel left point, where its
 four pixels are known: meaningful on the float ground truth of the 2014 scenes), and the
 seconds of ``match_stereo`` (single thread). ``--baselines`` adds SIFT + ratio + band and
-StereoSGBM sampled at the same left keypoints (``hopmatch.compare``), and the pooled ratio.
+StereoSGBM sampled at the same left keypoints (``hopmatch.compare``), and the pooled ratio,
+run on the same pair as hopmatch (with ``--perturb``, the perturbed one, their points
+mapped back alike; until 2026-12-06 on the pair as shipped).
 ``--grid`` adds, per scene and pooled, how many of the wrong matches have a disparity
 within 0.5 px of a nonzero multiple of 8 px (where JPEG's block grid, at the same place in
 both views, puts them; docs/robustness.md, "JPEG, noise and blur"), and per scene each
@@ -22,7 +24,8 @@ by ``result.distances`` (k = 10, 20, 30, 50, 70, 90, 100; scored matches only), 
 confidence that ranks keeps (near) non-increasing in k.
 
 ``--guided`` sets module constants of :mod:`hopmatch.matching.guided` first (e.g.
-``'{"GUIDED_SEED_ROUNDS": 0}'``), to measure the guided pass's settings one at a time;
+``'{"GUIDED_SEED_ROUNDS": 0}'``; ``PLANE_*`` ones of :mod:`hopmatch.matching.planes`, the
+seeds' receding planes), to measure the guided pass's settings one at a time;
 ``--halves`` those of :mod:`hopmatch.matching.halves` (``'{"HALF_CHECK": false}'``: without
 the half-window test).
 
@@ -60,6 +63,7 @@ and of the paired differences.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
@@ -84,7 +88,7 @@ from hopmatch import datasets  # noqa: E402
 from hopmatch.compare import METHODS  # noqa: E402
 from hopmatch.evaluate import score_matches  # noqa: E402
 from hopmatch.feature import blocking  # noqa: E402
-from hopmatch.matching import guided, halves  # noqa: E402
+from hopmatch.matching import guided, halves, planes  # noqa: E402
 
 
 def bilinear_gt(points: np.ndarray, disparity: np.ndarray) -> np.ndarray:
@@ -300,10 +304,12 @@ def main(argv=None) -> int:
     params = json.loads(args.params)
     own = {}
     for name, value in json.loads(args.guided).items():
-        if not (name.startswith("GUIDED_") and hasattr(guided, name)):
-            raise SystemExit(f"--guided: hopmatch.matching.guided has no constant {name!r}")
-        own[name] = getattr(guided, name)
-        setattr(guided, name, value)
+        module = constants_of(name)
+        if module is None:
+            raise SystemExit(f"--guided: hopmatch.matching.guided has no constant {name!r} "
+                             "(nor hopmatch.matching.planes)")
+        own[name] = getattr(module, name)
+        setattr(module, name, value)
     for name, value in json.loads(args.halves).items():
         if not (name.startswith("HALF_") and hasattr(halves, name)):
             raise SystemExit(f"--halves: hopmatch.matching.halves has no constant {name!r}")
@@ -346,12 +352,11 @@ def main(argv=None) -> int:
                     cells.append(f"{v}: {kk}/{cc}/{pp:.3f}/{mm:.3f}")
             row = (f"{n} | {k} | {c} | {p:.3f} | {med:.3f} | {'; '.join(cells)} | "
                    f"{1000 * secs:.0f}")
-            if args.baselines:
-                s_sift = METHODS["sift-ratio"](scene)
-                s_sgbm = METHODS["sgbm"](scene)
-                cs = score_matches(s_sift.left_pts, s_sift.right_pts, scene.disparity).correct[1.0]
-                cg = score_matches(s_sgbm.left_pts, s_sgbm.right_pts,
-                                   scene.disparity).correct[1.0]
+            if args.baselines:  # on the same (perturbed) pair, scored as hopmatch is
+                pair = dataclasses.replace(scene, left=left, right=right)
+                cs, cg = (score_matches(unmap(b.left_pts, m_left), unmap(b.right_pts, m),
+                                        scene.disparity).correct[1.0]
+                          for b in (METHODS["sift-ratio"](pair), METHODS["sgbm"](pair)))
                 tot["sift"] += cs
                 tot["sgbm"] += cg
                 row += f" | {cs}{'' if c >= cs else ' (miss)'} | {cg}"
@@ -390,6 +395,16 @@ def main(argv=None) -> int:
     return 0
 
 
+def constants_of(name: str):
+    """The module whose constant ``--guided`` names: :mod:`hopmatch.matching.guided` for
+    ``GUIDED_*``, :mod:`hopmatch.matching.planes` for ``PLANE_*`` (the seeds' receding
+    planes); None when it has no such constant."""
+    for prefix, module in (("GUIDED_", guided), ("PLANE_", planes)):
+        if name.startswith(prefix) and hasattr(module, name):
+            return module
+    return None
+
+
 def print_timing(names, params, own: dict, changed: dict, runs: int) -> None:
     """The ``--timing`` lines: per scene, ``match_stereo`` with the constants ``own`` (the
     module's) and ``changed`` (``--guided``'s), ``runs`` interleaved runs each after one
@@ -417,7 +432,7 @@ def print_timing(names, params, own: dict, changed: dict, runs: int) -> None:
         for k in range(runs + 1):
             for label, values in (("own", own), ("changed", changed)):
                 for name, value in values.items():
-                    setattr(guided, name, value)
+                    setattr(constants_of(name), name, value)
                 spent.clear()
                 t0 = time.thread_time()
                 hopmatch.match_stereo(scene.left, scene.right, **params)
@@ -431,7 +446,7 @@ def print_timing(names, params, own: dict, changed: dict, runs: int) -> None:
               f"ms); paired difference: median {np.median(diff):+.1f} ms", flush=True)
     stereo_match.guided_rounds = rounds
     for name, value in changed.items():  # the table that follows runs with --guided's
-        setattr(guided, name, value)
+        setattr(constants_of(name), name, value)
     print()
 
 

@@ -38,6 +38,7 @@ from .guided_results import (
     search_stages,
 )
 from .neighbourhood import half_sides, nearest_of, neighbour_planes, query_neighbours
+from .planes import receding_plane_inliers
 from .similarity import EPS, similarity_distance
 
 #: Largest distance (px) between the peak of the row search and the predicted disparity.
@@ -133,6 +134,14 @@ GUIDED_SEED_ROUNDS = 1
 #: has round 1's settings, and no larger a window than the last round), so they find the
 #: same (False: every unmatched point is searched again).
 GUIDED_SEED_NEAR = True
+#: A seed whose peak lies on a receding plane that hundreds of the seeds' peaks lie on
+#: (:func:`~hopmatch.matching.planes.receding_plane_inliers`: a road, a floor) is kept when
+#: its field exceeds :data:`GUIDED_PLANE_SEED_FIELD` rather than
+#: :data:`GUIDED_SEED_FIELD` (False: the field test alone, as until 2026-12-06; docs/
+#: parameters.md, "Seeds on a receding plane").
+GUIDED_SEED_PLANES = True
+#: Smallest field of a seed on such a plane (the network's own test, as in round 0).
+GUIDED_PLANE_SEED_FIELD = 0.0
 #: Most ZNCC columns the seeds' search scores in all: each seed scores the columns of the
 #: whole range (``2 outer + 3``), and beyond this budget only the strongest seeds are
 #: searched (the left points come strongest first). Without it the search grows as the
@@ -393,7 +402,10 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     field exceeds ``min_field``, its neighbours being the matches *and the other peaks
     found so* (each but itself): a peak far from every match is kept only when enough
     peaks around it agree on one surface (the local plane of those neighbours carries
-    them, as in :func:`guided_pass`).
+    them, as in :func:`guided_pass`), or, with :data:`GUIDED_SEED_PLANES`, exceeds
+    :data:`GUIDED_PLANE_SEED_FIELD` and the peak lies on a receding plane that hundreds of
+    the peaks lie on (:func:`~hopmatch.matching.planes.receding_plane_inliers`, with each
+    peak's local plane as a candidate).
     Each seed is then searched again with right windows sheared by each of
     :data:`GUIDED_SEED_SHEARS` and keeps the found peak of highest ZNCC.
     ``matched_similarity``: eq. 7's distance of each matched pair. ``max_work``: the most
@@ -480,7 +492,12 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     u = _k.continuity_field(qpts, xr, yr, sim, off, idx, np.arange(len(q)), m_left, m_right,
                             m_sim, config.theta, config.slope, config.similarity_weight,
                             config.input_bias, gx, gy)
-    return accepted_matches(np.nan_to_num(u, nan=-np.inf) > min_field, q, xr, yr, u, best,
+    field = np.nan_to_num(u, nan=-np.inf)
+    keep = field > min_field
+    if GUIDED_SEED_PLANES:  # or on a receding plane that hundreds of peaks lie on
+        on_plane = receding_plane_inliers(qpts, qpts[:, 0].astype(np.float64) - xr, gx, gy)
+        keep |= on_plane & (field > GUIDED_PLANE_SEED_FIELD)
+    return accepted_matches(keep, q, xr, yr, u, best,
                             second, sim)
 
 

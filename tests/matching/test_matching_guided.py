@@ -24,6 +24,7 @@ from hopmatch.matching.guided import (
     GUIDED_PLANE_MIN,
     GUIDED_PLANE_REACH,
     GUIDED_PLANE_REFITS,
+    GUIDED_PLANE_SEED_FIELD,
     GUIDED_RADIUS,
     GUIDED_SEED_FIELD,
     GUIDED_SEED_MARGIN,
@@ -580,15 +581,30 @@ def test_rounds_after_the_seeds_search_only_where_something_changed(monkeypatch,
         np.testing.assert_array_equal(getattr(got[True], f), getattr(got[False], f))
 
 
-@pytest.mark.parametrize("seed_all", [True, False])
-def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test(monkeypatch, seed_all):
+@pytest.mark.parametrize("seed_all, planes", [(True, "default"), (False, "default"),
+                                               (True, "off"), (True, "every other")])
+def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test(monkeypatch, seed_all,
+                                                                     planes):
     """seed_pass: the seeds are the left points without a match (``GUIDED_SEED_ALL``
     False: and with fewer than 3 matches in the network's window) whose row search over
     the whole disparity range (the reference) finds a peak with a field above the seed
     minimum, the matches and the other such peaks (all but itself) as neighbours; far
     from the few matches left, only the peaks' agreement among themselves can carry
-    them."""
+    them. Or (``GUIDED_SEED_PLANES``) a peak on a receding plane with a field above
+    ``GUIDED_PLANE_SEED_FIELD``: this pair is fronto-parallel, so by default no peak is
+    on one ("default" and "off" alike); "every other" stands in a plane finder that puts
+    every other peak on one, given the peaks' positions, disparities and local gradients
+    in order."""
     monkeypatch.setattr(guided_module, "GUIDED_SEED_ALL", seed_all)
+    monkeypatch.setattr(guided_module, "GUIDED_SEED_PLANES", planes != "off")
+    plane_calls = []
+    if planes == "every other":
+        def every_other(points, disparity, gx, gy):
+            plane_calls.append((np.array(points), np.array(disparity), np.array(gx),
+                                np.array(gy)))
+            return np.arange(len(disparity)) % 2 == 0
+
+        monkeypatch.setattr(guided_module, "receding_plane_inliers", every_other)
     pl, dl, gl, pr, dr, gr, net = _network_case(rows=64)  # fewer points for the reference
     config = net.config
     keep = pl[net.query_idx, 0] < 60  # the matches of the left strip only
@@ -644,6 +660,7 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test(monkeypatch
     disp = ml[:, 0].astype(np.float64) - mr[:, 0]
     nb = ng.neighbours(pl[pk], ml, config.neighbour_width / 2, config.neighbour_height / 2)
     fields_ = {}
+    grads = []
     for m, (i, xr, sim) in enumerate(peaks):
         j = np.array(sorted(nb[m] - {len(qi) + m}))  # the matches and the other peaks
         _, gx, gy = ng.local_plane(pl[i], ml[j], disp[j], GUIDED_PLANE_INLIER,
@@ -654,6 +671,14 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test(monkeypatch
                      mr[j], ms[j], config.theta, config.slope, config.similarity_weight,
                      config.input_bias, gradient=grad)
         fields_[int(i)] = (xr, u)
+        grads.append(grad)
+    if planes == "every other":  # given every peak in order, with its local plane
+        p_pts, p_disp, p_gx, p_gy = plane_calls[0]
+        np.testing.assert_array_equal(p_pts, pl[pk])
+        np.testing.assert_allclose(p_disp, [pl[i, 0] - xr for i, xr, _ in peaks], atol=1e-4)
+        np.testing.assert_allclose(np.c_[p_gx, p_gy], grads, atol=1e-6)
+    on_plane = {int(i): planes == "every other" and m % 2 == 0 for m, (i, _, _) in
+                enumerate(peaks)}
     # the seeds are the peaks above the minimum field: the default one, and one that
     # refuses about half of them
     us = np.sort([u for _, u in fields_.values()])
@@ -661,12 +686,16 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test(monkeypatch
     for min_field, got in ((GUIDED_SEED_FIELD, sd),
                            (high, seed_pass(pl, pr, dl, gl, gr, qi, ti, yoff, config, msim,
                                             min_field=high))):
-        kept = {i: v for i, v in fields_.items() if v[1] > min_field}
+        kept = {i: v for i, v in fields_.items()
+                if v[1] > min_field or (on_plane[i] and v[1] > GUIDED_PLANE_SEED_FIELD)}
         assert sorted(kept) == sorted(got.query_idx.tolist())
         for m, i in enumerate(got.query_idx):
             assert got.right_points[m, 0] == pytest.approx(kept[int(i)][0], abs=1e-4)
             assert got.fields[m] == pytest.approx(kept[int(i)][1], abs=1e-6)
     assert 0 < len(kept) < len(peaks)
+    if planes == "every other":  # some kept for their plane alone
+        assert any(on_plane[i] and GUIDED_PLANE_SEED_FIELD < v[1] <= high
+                   for i, v in fields_.items())
     # without a resolved range there is nothing to search
     unresolved = matcher_config({"max_disparity": None})
     assert len(seed_pass(pl, pr, dl, gl, gr, qi, ti, yoff, unresolved, msim).query_idx) == 0
