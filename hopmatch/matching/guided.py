@@ -497,8 +497,7 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     if GUIDED_SEED_PLANES:  # or on a receding plane that hundreds of peaks lie on
         on_plane = receding_plane_inliers(qpts, qpts[:, 0].astype(np.float64) - xr, gx, gy)
         keep |= on_plane & (field > GUIDED_PLANE_SEED_FIELD)
-    return accepted_matches(keep, q, xr, yr, u, best,
-                            second, sim)
+    return accepted_matches(keep, q, xr, yr, u, best, second, sim)
 
 
 def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_offset,

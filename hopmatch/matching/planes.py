@@ -81,7 +81,8 @@ def receding_plane_inliers(points, disparity, gx, gy, *, tolerance: float | None
     times (each refit to the points near the one before), and the points within
     ``tolerance`` of the last fit are its inliers when they number at least ``min_inliers``
     and its gradient is at least ``min_slant``; otherwise the search stops. Deterministic:
-    no random sampling. None for the module's ``PLANE_*`` values.
+    no random sampling. None for the module's ``PLANE_*`` values (``min_inliers``: the
+    larger of :data:`PLANE_MIN_INLIERS` and :data:`PLANE_MIN_SHARE` of the points).
     """
     tolerance = PLANE_TOLERANCE if tolerance is None else tolerance
     min_inliers = (max(PLANE_MIN_INLIERS, PLANE_MIN_SHARE * len(np.reshape(disparity, -1)))
