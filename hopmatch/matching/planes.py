@@ -84,14 +84,14 @@ def receding_plane_inliers(points, disparity, gx, gy, *, tolerance: float | None
     no random sampling. None for the module's ``PLANE_*`` values (``min_inliers``: the
     larger of :data:`PLANE_MIN_INLIERS` and :data:`PLANE_MIN_SHARE` of the points).
     """
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    d = np.asarray(disparity, dtype=np.float64).reshape(-1)
     tolerance = PLANE_TOLERANCE if tolerance is None else tolerance
-    min_inliers = (max(PLANE_MIN_INLIERS, PLANE_MIN_SHARE * len(np.reshape(disparity, -1)))
-                   if min_inliers is None else min_inliers)
+    min_inliers = (max(PLANE_MIN_INLIERS, PLANE_MIN_SHARE * len(d)) if min_inliers is None
+                   else min_inliers)
     min_slant = PLANE_MIN_SLANT if min_slant is None else min_slant
     max_planes = PLANE_MAX if max_planes is None else max_planes
     hypotheses = PLANE_HYPOTHESES if hypotheses is None else hypotheses
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-    d = np.asarray(disparity, dtype=np.float64).reshape(-1)
     gx = np.asarray(gx, dtype=np.float64).reshape(-1)
     gy = np.asarray(gy, dtype=np.float64).reshape(-1)
     out = np.zeros(len(d), dtype=bool)
