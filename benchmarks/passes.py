@@ -24,8 +24,9 @@ by ``result.distances`` (k = 10, 20, 30, 50, 70, 90, 100; scored matches only), 
 confidence that ranks keeps (near) non-increasing in k.
 
 ``--guided`` sets module constants of :mod:`hopmatch.matching.guided` first (e.g.
-``'{"GUIDED_SEED_ROUNDS": 0}'``; ``PLANE_*`` ones of :mod:`hopmatch.matching.planes`, the
-seeds' receding planes), to measure the guided pass's settings one at a time;
+``'{"GUIDED_SEED_ROUNDS": 0}'``; ``PLANE_PASS_*`` ones of :mod:`hopmatch.matching.plane_pass`,
+the plane pass, other ``PLANE_*`` ones of :mod:`hopmatch.matching.planes`, the seeds'
+receding planes), to measure the guided pass's settings one at a time;
 ``--halves`` those of :mod:`hopmatch.matching.halves` (``'{"HALF_CHECK": false}'``: without
 the half-window test).
 
@@ -88,7 +89,7 @@ from hopmatch import datasets  # noqa: E402
 from hopmatch.compare import METHODS  # noqa: E402
 from hopmatch.evaluate import score_matches  # noqa: E402
 from hopmatch.feature import blocking  # noqa: E402
-from hopmatch.matching import guided, halves, planes  # noqa: E402
+from hopmatch.matching import guided, halves, plane_pass, planes  # noqa: E402
 
 
 def bilinear_gt(points: np.ndarray, disparity: np.ndarray) -> np.ndarray:
@@ -307,7 +308,7 @@ def main(argv=None) -> int:
         module = constants_of(name)
         if module is None:
             raise SystemExit(f"--guided: hopmatch.matching.guided has no constant {name!r} "
-                             "(nor hopmatch.matching.planes)")
+                             "(nor hopmatch.matching.plane_pass or planes)")
         own[name] = getattr(module, name)
         setattr(module, name, value)
     for name, value in json.loads(args.halves).items():
@@ -397,9 +398,11 @@ def main(argv=None) -> int:
 
 def constants_of(name: str):
     """The module whose constant ``--guided`` names: :mod:`hopmatch.matching.guided` for
-    ``GUIDED_*``, :mod:`hopmatch.matching.planes` for ``PLANE_*`` (the seeds' receding
+    ``GUIDED_*``, :mod:`hopmatch.matching.plane_pass` for ``PLANE_PASS_*`` (the plane
+    pass), :mod:`hopmatch.matching.planes` for the other ``PLANE_*`` (the seeds' receding
     planes); None when it has no such constant."""
-    for prefix, module in (("GUIDED_", guided), ("PLANE_", planes)):
+    for prefix, module in (("GUIDED_", guided), ("PLANE_PASS_", plane_pass),
+                           ("PLANE_", planes)):
         if name.startswith(prefix) and hasattr(module, name):
             return module
     return None

@@ -15,7 +15,9 @@ as continuous, and the network's input bias). :func:`guided_rounds` repeats the 
 propagating from the guided matches too (later rounds with a larger margin, a field above
 3 and, for points with too few matched neighbours, a larger window), then seeds the
 points still unmatched (:func:`seed_pass`: a search of the whole disparity range whose
-peaks are kept where they agree with one another) and propagates from those.
+peaks are kept where they agree with one another) and propagates from those, and last
+searches the points among the matches of a receding plane the seeds found at the plane's
+disparity (:func:`~hopmatch.matching.plane_pass.plane_pass`) and propagates from those.
 """
 
 from __future__ import annotations
@@ -38,7 +40,8 @@ from .guided_results import (
     search_stages,
 )
 from .neighbourhood import half_sides, nearest_of, neighbour_planes, query_neighbours
-from .planes import receding_plane_inliers
+from .plane_pass import plane_pass
+from .planes import receding_planes
 from .similarity import EPS, similarity_distance
 
 #: Largest distance (px) between the peak of the row search and the predicted disparity.
@@ -142,6 +145,13 @@ GUIDED_SEED_NEAR = True
 GUIDED_SEED_PLANES = True
 #: Smallest field of a seed on such a plane (the network's own test, as in round 0).
 GUIDED_PLANE_SEED_FIELD = 0.0
+#: After the rounds that follow the seeds, the left points still unmatched whose matched
+#: neighbours lie on one of the receding planes the seeds found are searched at the plane's
+#: disparity (:func:`~hopmatch.matching.plane_pass.plane_pass`; False: not, as until
+#: 2026-12-06; docs/parameters.md, "The plane pass")...
+GUIDED_PLANE_PASS = True
+#: ...and this many guided rounds (round 1's settings) propagate from what it found.
+GUIDED_PLANE_ROUNDS = 1
 #: Most ZNCC columns the seeds' search scores in all: each seed scores the columns of the
 #: whole range (``2 outer + 3``), and beyond this budget only the strongest seeds are
 #: searched (the left points come strongest first). Without it the search grows as the
@@ -391,21 +401,32 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
               matched_similarity, *, min_zncc: float | None = None,
               margin: float | None = None, min_field: float | None = None,
               max_work: int | None = None, threads: int | None = None) -> GuidedMatches:
-    """Seeds: the left points not in ``query_idx`` (:data:`GUIDED_SEED_ALL` False: those
-    with fewer than ``GUIDED_MIN_SUPPORT`` of them in the network's window), each searched
-    along its whole row of the right image (``config``'s resolved disparity range within
-    ``[1 - W_r, W_l - 1]``; with :data:`GUIDED_SEED_CLIP` the part of it whose right
-    windows lie in the image), kept when the best ZNCC is at least
-    ``min_zncc``, a local maximum, ahead by ``margin`` of the best one at least
-    :data:`GUIDED_SHOULDER` pixels away in the range, searching back finds the left point
-    again (:func:`row_search` with the whole range as its search and radius), and its
-    field exceeds ``min_field``, its neighbours being the matches *and the other peaks
-    found so* (each but itself): a peak far from every match is kept only when enough
-    peaks around it agree on one surface (the local plane of those neighbours carries
-    them, as in :func:`guided_pass`), or, with :data:`GUIDED_SEED_PLANES`, exceeds
+    """:func:`seed_search`'s seeds (the same arguments), without the planes."""
+    return seed_search(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset,
+                       config, matched_similarity, min_zncc=min_zncc, margin=margin,
+                       min_field=min_field, max_work=max_work, threads=threads)[0]
+
+
+def seed_search(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, config,
+                matched_similarity, *, min_zncc: float | None = None,
+                margin: float | None = None, min_field: float | None = None,
+                max_work: int | None = None,
+                threads: int | None = None) -> tuple[GuidedMatches, np.ndarray]:
+    """``(seeds, planes)``. Seeds: the left points not in ``query_idx``
+    (:data:`GUIDED_SEED_ALL` False: those with fewer than ``GUIDED_MIN_SUPPORT`` of them in
+    the network's window), each searched along its whole row of the right image
+    (``config``'s resolved disparity range within ``[1 - W_r, W_l - 1]``; with
+    :data:`GUIDED_SEED_CLIP` the part of it whose right windows lie in the image), kept when
+    the best ZNCC is at least ``min_zncc``, a local maximum, ahead by ``margin`` of the best
+    one at least :data:`GUIDED_SHOULDER` pixels away in the range, searching back finds the
+    left point again (:func:`row_search` with the whole range as its search and radius), and
+    its field exceeds ``min_field``, its neighbours being the matches *and the other peaks
+    found so* (each but itself): a peak far from every match is kept only when enough peaks
+    around it agree on one surface (the local plane of those neighbours carries them, as in
+    :func:`guided_pass`), or, with :data:`GUIDED_SEED_PLANES`, exceeds
     :data:`GUIDED_PLANE_SEED_FIELD` and the peak lies on a receding plane that hundreds of
-    the peaks lie on (:func:`~hopmatch.matching.planes.receding_plane_inliers`, with each
-    peak's local plane as a candidate).
+    the peaks lie on (:func:`~hopmatch.matching.planes.receding_planes`, with each peak's
+    local plane as a candidate).
     Each seed is then searched again with right windows sheared by each of
     :data:`GUIDED_SEED_SHEARS` and keeps the found peak of highest ZNCC.
     ``matched_similarity``: eq. 7's distance of each matched pair. ``max_work``: the most
@@ -414,13 +435,15 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
     (the detector's: strongest first) are searched, at least one, and the sheared searches
     take the first seeds again with what the square one left. None for the module's
     ``GUIDED_SEED_*`` values. Returns them as :class:`GuidedMatches` (empty when the range
-    is not resolved)."""
+    is not resolved) and the receding planes found among the peaks ((K, 3) rows ``(a, b,
+    c)`` of ``d = a + b x + c y``; none without :data:`GUIDED_SEED_PLANES`)."""
     min_zncc = GUIDED_SEED_ZNCC if min_zncc is None else min_zncc
     margin = GUIDED_SEED_MARGIN if margin is None else margin
     min_field = GUIDED_SEED_FIELD if min_field is None else min_field
     max_work = GUIDED_SEED_WORK if max_work is None else max_work
+    none = np.zeros((0, 3))
     if config.max_disparity is None or len(pts_l) == 0 or desc_l.dtype == np.uint8:
-        return empty_guided()
+        return empty_guided(), none
     # the disparities of right points inside the image: a huge range costs no more
     d_lo = max(float(config.min_disparity or 0.0), 1.0 - g_r.shape[1])
     d_hi = min(float(config.max_disparity), g_l.shape[1] - 1.0)
@@ -436,7 +459,7 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
                                   *sides, threads=threads)
         q = q[np.diff(off) < GUIDED_MIN_SUPPORT]
     if len(q) == 0 or d_lo > d_hi:
-        return empty_guided()
+        return empty_guided(), none
     outer = int(np.ceil(0.5 * (d_hi - d_lo))) + 1
     columns = 2 * outer + 3  # per seed and search
     q = q[:max(1, int(max_work) // columns)]  # the strongest within the budget
@@ -468,7 +491,7 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
             ours[:n][take] = theirs[take]
     f = np.flatnonzero(status == _k.FOUND)
     if len(f) == 0:
-        return empty_guided()
+        return empty_guided(), none
     q, xr, best, second, sim = q[f], xr[f], best[f], second[f], sim[f]
     yr = pts_l[q, 1].astype(np.float64) - yoff[f]
     n_m = len(qi)
@@ -494,10 +517,11 @@ def seed_pass(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, co
                             config.input_bias, gx, gy)
     field = np.nan_to_num(u, nan=-np.inf)
     keep = field > min_field
+    planes = none
     if GUIDED_SEED_PLANES:  # or on a receding plane that hundreds of peaks lie on
-        on_plane = receding_plane_inliers(qpts, qpts[:, 0].astype(np.float64) - xr, gx, gy)
-        keep |= on_plane & (field > GUIDED_PLANE_SEED_FIELD)
-    return accepted_matches(keep, q, xr, yr, u, best, second, sim)
+        planes, label = receding_planes(qpts, qpts[:, 0].astype(np.float64) - xr, gx, gy)
+        keep |= (label >= 0) & (field > GUIDED_PLANE_SEED_FIELD)
+    return accepted_matches(keep, q, xr, yr, u, best, second, sim), planes
 
 
 def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, y_offset,
@@ -520,9 +544,14 @@ def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     only those with a match of the round before. None: :data:`GUIDED_ROUNDS`,
     :data:`GUIDED_LATER_MARGIN`, :data:`GUIDED_GROWTH`, :data:`GUIDED_LATER_FIELD`,
     :data:`GUIDED_SEED_ROUNDS`. Other arguments as :func:`guided_pass` (``fallback`` is
-    every round's; the seeds search ``g_l``, ``g_r`` only). Returns the
-    guided matches of all rounds (the seeds after the first ``rounds``), in round order;
-    the rounds stop early when one finds none."""
+    every round's; the seeds search ``g_l``, ``g_r`` only). Then, with
+    :data:`GUIDED_PLANE_PASS` and receding planes among the seeds' peaks
+    (:func:`seed_search`), the points still unmatched are searched on them
+    (:func:`~hopmatch.matching.plane_pass.plane_pass`, with this module's search, back
+    search, shoulder and gradient limit) and :data:`GUIDED_PLANE_ROUNDS` rounds (numbered
+    1...) propagate from what it found. Returns the guided matches of all rounds (the
+    seeds after the first ``rounds``, the plane pass after the rounds that follow them),
+    in round order; the rounds stop early when one finds none."""
     rounds = GUIDED_ROUNDS if rounds is None else rounds
     later_margin = GUIDED_LATER_MARGIN if later_margin is None else later_margin
     growth = GUIDED_GROWTH if growth is None else growth
@@ -572,8 +601,8 @@ def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     last, fresh = run(0, rounds)
     if seed_rounds > 0:
         start = len(qi)
-        gm = seed_pass(pts_l, right, desc_l, g_l, g_r, qi, ti, y_offset, config, sim,
-                       threads=threads)
+        gm, planes = seed_search(pts_l, right, desc_l, g_l, g_r, qi, ti, y_offset, config,
+                                 sim, threads=threads)
         if len(gm.query_idx):
             add(gm)
             # the round after the seeds has round 1's settings, and the window of the
@@ -583,6 +612,17 @@ def guided_rounds(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
             near = GUIDED_SEED_NEAR and last >= 1
             run(1, int(seed_rounds), new_from=(None if not near
                                                else start if fresh is None else fresh))
+        if GUIDED_PLANE_PASS and len(planes):
+            matched = np.zeros(len(pts_l), dtype=bool)
+            matched[qi] = True
+            start = len(qi)
+            gm = plane_pass(pts_l, desc_l, g_l, g_r, pts_l[qi], right[ti], sim,
+                            np.flatnonzero(~matched), y_offset, config, planes,
+                            search=GUIDED_SEARCH, back=GUIDED_BACK, shoulder=GUIDED_SHOULDER,
+                            gradient_limit=GUIDED_GRADIENT_LIMIT, threads=threads)
+            if len(gm.query_idx):
+                add(gm)
+                run(1, int(GUIDED_PLANE_ROUNDS), new_from=start)
 
     if not found:
         return empty_guided()

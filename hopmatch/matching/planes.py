@@ -68,7 +68,20 @@ def receding_plane_inliers(points, disparity, gx, gy, *, tolerance: float | None
                            max_planes: int | None = None,
                            hypotheses: int | None = None) -> np.ndarray:
     """(N,) bool: which points lie within ``tolerance`` of a slanted plane that at least
-    ``min_inliers`` of them lie on.
+    ``min_inliers`` of them lie on (:func:`receding_planes`' labels, same arguments)."""
+    return receding_planes(points, disparity, gx, gy, tolerance=tolerance,
+                           min_inliers=min_inliers, min_slant=min_slant,
+                           max_planes=max_planes, hypotheses=hypotheses)[1] >= 0
+
+
+def receding_planes(points, disparity, gx, gy, *, tolerance: float | None = None,
+                    min_inliers: int | None = None, min_slant: float | None = None,
+                    max_planes: int | None = None,
+                    hypotheses: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(planes, label)``: the slanted planes that at least ``min_inliers`` of the points
+    lie on within ``tolerance``, (K, 3) float64 rows ``(a, b, c)`` of ``d = a + b x + c
+    y`` in the order found, and (N,) int64 ``label``, the plane each point was counted on
+    (-1: none).
 
     ``points`` (N, 2) are left positions ``(x, y)``, ``disparity`` (N,) their disparities,
     ``gx``, ``gy`` (N,) the local disparity gradient at each (NaN where unknown). The
@@ -94,13 +107,12 @@ def receding_plane_inliers(points, disparity, gx, gy, *, tolerance: float | None
     hypotheses = PLANE_HYPOTHESES if hypotheses is None else hypotheses
     gx = np.asarray(gx, dtype=np.float64).reshape(-1)
     gy = np.asarray(gy, dtype=np.float64).reshape(-1)
-    out = np.zeros(len(d), dtype=bool)
-    if len(d) < max(min_inliers, 3):
-        return out
+    label = np.full(len(d), -1, dtype=np.int64)
+    planes = []
     slant = np.hypot(gx, gy)
     cand = np.flatnonzero(np.isfinite(d) & np.isfinite(slant) & (slant >= min_slant))
-    if len(cand) == 0:
-        return out
+    if len(d) < max(min_inliers, 3) or len(cand) == 0:
+        return np.zeros((0, 3)), label
     cand = cand[np.linspace(0, len(cand) - 1, min(hypotheses, len(cand))).astype(np.int64)]
     hyp = np.stack((d[cand] - gx[cand] * p[cand, 0] - gy[cand] * p[cand, 1], gx[cand],
                     gy[cand]), axis=1)
@@ -120,7 +132,8 @@ def receding_plane_inliers(points, disparity, gx, gy, *, tolerance: float | None
         inliers = idx[plane_residuals(p[idx], d[idx], coef) <= tolerance]
         if len(inliers) < min_inliers or np.hypot(coef[1], coef[2]) < min_slant:
             break
-        out[inliers] = True
+        label[inliers] = len(planes)
+        planes.append(coef)
         free[inliers] = False
         hyp = np.delete(hyp, k, axis=0)
-    return out
+    return np.reshape(planes, (-1, 3)).astype(np.float64), label

@@ -602,9 +602,10 @@ def test_seeds_pass_the_whole_range_search_and_the_mutual_field_test(monkeypatch
         def every_other(points, disparity, gx, gy):
             plane_calls.append((np.array(points), np.array(disparity), np.array(gx),
                                 np.array(gy)))
-            return np.arange(len(disparity)) % 2 == 0
+            label = np.where(np.arange(len(disparity)) % 2 == 0, 0, -1)
+            return np.array([[0.0, 0.0, 0.2]]), label
 
-        monkeypatch.setattr(guided_module, "receding_plane_inliers", every_other)
+        monkeypatch.setattr(guided_module, "receding_planes", every_other)
     pl, dl, gl, pr, dr, gr, net = _network_case(rows=64)  # fewer points for the reference
     config = net.config
     keep = pl[net.query_idx, 0] < 60  # the matches of the left strip only

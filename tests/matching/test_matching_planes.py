@@ -110,6 +110,30 @@ def test_a_road_among_scattered_peaks_is_found_and_only_it():
     assert got[800:].sum() < 0.05 * 2000
 
 
+def test_receding_planes_give_each_inlier_its_plane():
+    """receding_planes: the planes' coefficients (least squares on their inliers, near the
+    truth), each inlier labelled with the plane it was counted on, in the order found (the
+    larger first), and the labels' inliers exactly receding_plane_inliers'."""
+    rng = np.random.default_rng(4)
+    road, wall = (-30.0, 0.0, 0.25), (10.0, 0.15, 0.0)
+    args = stack(plane_points(900, road, 0.3, rng, (0, 600, 150, 400)),
+                 plane_points(600, wall, 0.3, rng, (300, 600, 0, 150)), scattered(800, rng))
+    coef, label = planes.receding_planes(*args)
+    assert coef.shape == (2, 3) and label.dtype == np.int64
+    np.testing.assert_allclose(coef[0], road, atol=0.05)
+    np.testing.assert_allclose(coef[1], wall, atol=0.05)
+    assert (label[:900] == 0).mean() > 0.99 and (label[900:1500] == 1).mean() > 0.99
+    np.testing.assert_array_equal(label >= 0, receding_plane_inliers(*args))
+    p, d = args[0], args[1]
+    for k in range(2):  # each plane is the least-squares fit to its own inliers
+        on = label == k
+        np.testing.assert_array_less(planes.plane_residuals(p[on], d[on], coef[k]), 0.5 + 1e-9)
+        lsq = np.linalg.lstsq(np.c_[np.ones(on.sum()), p[on]], d[on], rcond=None)[0]
+        np.testing.assert_allclose(coef[k], lsq, atol=0.02)
+    none, lab = planes.receding_planes(*scattered(300, rng))
+    assert none.shape == (0, 3) and (lab == -1).all()
+
+
 def test_planes_need_enough_points_and_a_slant():
     rng = np.random.default_rng(5)
     few = stack(plane_points(planes.PLANE_MIN_INLIERS - 20, (0, 0.0, 0.3), 0.2, rng),
