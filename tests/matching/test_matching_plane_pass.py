@@ -147,3 +147,46 @@ def test_plane_pass_needs_neighbours_on_a_plane():
         got = plane_pass(pts, desc, g_l, g_r, ml, m_right[:len(ml)], m_sim[:len(ml)], todo,
                          yoff, config, planes, **kw)
         assert len(got.query_idx) == 0 and got.right_points.shape == (0, 2)
+
+
+@pytest.mark.parametrize("on", [True, False])
+def test_guided_rounds_run_the_plane_pass_on_the_seeds_planes(on, monkeypatch):
+    """guided_rounds hands the receding planes the seeds found to the plane pass, with the
+    left points still unmatched and every match so far, and returns what it found (and
+    what the round after it propagated); with ``GUIDED_PLANE_PASS`` off it is not run."""
+    from hopmatch.matching import guided as guided_module
+    from hopmatch.matching.guided_results import empty_guided
+
+    monkeypatch.setattr(guided_module, "GUIDED_PLANE_PASS", on)
+    g_l, g_r, pts, desc = receding_pair()
+    config = matcher_config({"max_disparity": 40})
+    qi = np.arange(0, len(pts), 3)
+    pts_r = np.c_[pts[qi, 0] - truth(pts[qi]), pts[qi, 1]].astype(np.float32)
+    desc_r = gradient_windows(g_r, pts_r, 9)
+    ti = np.arange(len(qi))
+    planes = np.array([[A, 0.0, C]])
+    monkeypatch.setattr(guided_module, "seed_search",
+                        lambda *a, **k: (empty_guided(), planes))
+    calls = []
+    real = guided_module.plane_pass
+
+    def spy(pts_l, desc_l, gl, gr, m_left, m_right, m_sim, unmatched, *args, **kwargs):
+        got = real(pts_l, desc_l, gl, gr, m_left, m_right, m_sim, unmatched, *args, **kwargs)
+        calls.append((np.array(m_left), np.array(unmatched), args[2], got))
+        return got
+
+    monkeypatch.setattr(guided_module, "plane_pass", spy)
+    out = guided_module.guided_rounds(pts, pts_r, desc, desc_r, g_l, g_r, qi, ti,
+                                      np.zeros(len(pts)), config, rounds=1, seed_rounds=1,
+                                      threads=1)
+    assert len(calls) == int(on)
+    if on:
+        m_left, unmatched, given_planes, got = calls[0]
+        np.testing.assert_array_equal(given_planes, planes)
+        assert len(got.query_idx) > 0
+        # the guided matches come in round order: round 0's, the pass's, the round after
+        k = int(np.flatnonzero(out.query_idx == got.query_idx[0])[0])
+        np.testing.assert_array_equal(out.query_idx[k:k + len(got.query_idx)], got.query_idx)
+        before = np.r_[qi, out.query_idx[:k]]
+        assert set(unmatched.tolist()) == set(range(len(pts))) - set(before.tolist())
+        np.testing.assert_array_equal(m_left, pts[before])
