@@ -5,13 +5,12 @@ plane pass").
 The seeds find the receding planes (a road, a floor) that hundreds of their peaks lie on
 (:func:`~hopmatch.matching.planes.receding_planes`). Such a plane predicts the disparity at
 every point of its surface, and its gradient the shear of the right window there, better
-than a point's few matched neighbours do; on a road of fine texture the sheared windows
-correlate less well than the guided rounds' ZNCC floor asks, and most of the road stays
-unmatched. A left point whose matched neighbours lie on such a plane (enough of them, and
-most) is searched there with a lower ZNCC floor, and kept as every guided match is: the
-best peak near the plane's disparity, a clear one, confirmed by searching back, and a
-positive field with its neighbours carried along the plane (eq. 12's bracket, the
-network's own test).
+than a point's few matched neighbours do, and the fine texture of a road gives broad,
+repeated ZNCC peaks that the guided rounds' uniqueness margin refuses. A left point whose
+matched neighbours lie on such a plane (enough of them, and most) is searched there
+without that margin and with a lower ZNCC floor, and kept as every guided match is: the
+best peak near the plane's disparity, confirmed by searching back, and a positive field
+with its neighbours carried along the plane (eq. 12's bracket, the network's own test).
 """
 
 from __future__ import annotations
@@ -36,13 +35,14 @@ PLANE_PASS_SHARE = 0.5
 PLANE_PASS_RADIUS = 1.0
 #: Smallest ZNCC of an accepted peak (the guided rounds': 0.8).
 PLANE_PASS_ZNCC = 0.6
-#: Smallest lead of the peak over the best ZNCC ``shoulder`` or more columns away.
+#: Smallest lead of the peak over the best ZNCC ``shoulder`` or more columns away (the
+#: guided rounds': 0.1, then 0.2).
 PLANE_PASS_MARGIN = 0.0
 #: Smallest field of an accepted match (0: the network's own test).
 PLANE_PASS_FIELD = 0.0
 
 
-def plane_support(queries, offsets, idx, m_left, m_disp, planes,
+def plane_support(offsets, idx, m_left, m_disp, planes,
                   tolerance: float) -> tuple[np.ndarray, np.ndarray]:
     """``(plane, count)`` per query: the plane (row of ``planes``, ``(a, b, c)`` of ``d = a
     + b x + c y``) that most of its neighbours ``idx[offsets[q]:offsets[q + 1]]`` (indices
@@ -95,8 +95,7 @@ def plane_pass(pts_l, desc_l, g_l, g_r, m_left, m_right, m_sim, unmatched, y_off
     off, idx = query_neighbours(qpts, m_left,
                                 *half_sides(config.neighbour_width, config.neighbour_height),
                                 threads=threads)
-    plane, support = plane_support(qpts, off, idx, m_left, m_disp, planes,
-                                   PLANE_PASS_TOLERANCE)
+    plane, support = plane_support(off, idx, m_left, m_disp, planes, PLANE_PASS_TOLERANCE)
     rows = np.flatnonzero((support >= PLANE_PASS_SUPPORT)
                           & (support >= PLANE_PASS_SHARE * np.diff(off)))
     if len(rows) == 0:

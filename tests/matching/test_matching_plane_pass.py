@@ -62,7 +62,7 @@ def test_plane_support_matches_the_reference():
     queries = np.c_[rng.uniform(0, 200, 80), rng.uniform(0, 120, 80)].astype(np.float32)
     from hopmatch.matching.neighbourhood import query_neighbours
     off, idx = query_neighbours(queries, matched, np.float32(20), np.float32(10))
-    got = plane_support(queries, off, idx, matched, disp, planes, 1.0)
+    got = plane_support(off, idx, matched, disp, planes, 1.0)
     want = support_reference(queries, matched, disp, planes, 20, 10, 1.0)
     np.testing.assert_array_equal(got[0], want[0])
     np.testing.assert_array_equal(got[1], want[1])
