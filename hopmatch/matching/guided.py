@@ -27,8 +27,8 @@ from dataclasses import fields
 import numpy as np
 
 from .._kernels import guided as _k
-from .._threads import map_chunks, row_order
 from ..feature.descriptor import gradient_windows
+from .guided_kernels import continuity_fields, row_searches
 from .guided_results import (
     STAGE_CONTINUITY,
     STAGE_FEW_NEIGHBOURS,
@@ -353,16 +353,10 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
     def search_rows(im_l, im_r, points, windows, which, qs, min_zncc):
         """The row search on ``im_l``, ``im_r`` of the queries ``q[qs]``, the left point
         ``q[k]`` being ``points[which[k]]`` with the window ``windows[which[k]]``."""
-        return map_chunks(
-            lambda ww, cs, ys, ss: _k.row_search(im_l, im_r, points, windows, ww, cs, ys,
-                                                 float(radius), int(search), int(back),
-                                                 float(min_zncc), float(margin), EPS,
-                                                 float(config.gain_tolerance), False,
-                                                 bool(GUIDED_PEAK_MARGIN),
-                                                 int(GUIDED_SHOULDER), ss),
-            (np.ascontiguousarray(which), np.ascontiguousarray(centre[qs]),
-             np.ascontiguousarray(yoff[qs]), np.ascontiguousarray(shear[qs])), threads,
-            order=row_order(pts_l[q[qs], 1]))
+        return row_searches(im_l, im_r, points, windows, which, centre[qs], yoff[qs],
+                            radius, search, back, min_zncc, margin, EPS,
+                            config.gain_tolerance, False, GUIDED_PEAK_MARGIN,
+                            GUIDED_SHOULDER, shear[qs], threads=threads)
 
     status, best, second, xr, sim = search_rows(g_l, g_r, pts_l, desc_l, q, slice(None),
                                                 min_zncc)
@@ -382,12 +376,10 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
                 ours[again[took]] = theirs[took]
     ok = status == _k.FOUND
     yr = pts_l[q, 1].astype(np.float64) - yoff
-    u = map_chunks(  # each query's field from its own inputs: bit-identical in chunks
-        lambda pq, xq, yq, sq, rq, gxq, gyq: (_k.continuity_field(
-            pq, xq, yq, sq, off, idx, rq, m_left, m_right, m_sim, config.theta,
-            config.slope, config.similarity_weight, config.input_bias, gxq, gyq),),
-        (np.ascontiguousarray(pts_l[q]), np.where(ok, xr, np.nan), yr, sim, rows, gx, gy),
-        threads)[0]
+    u = continuity_fields(np.ascontiguousarray(pts_l[q]), np.where(ok, xr, np.nan), yr, sim,
+                          off, idx, rows, m_left, m_right, m_sim, config.theta, config.slope,
+                          config.similarity_weight, config.input_bias, gx, gy,
+                          threads=threads)
     keep = ok & (np.nan_to_num(u, nan=-np.inf) > min_field)
     stage[rows] = search_stages(status, best, min_zncc)
     stage[rows[ok & ~keep]] = STAGE_CONTINUITY
@@ -468,15 +460,10 @@ def seed_search(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, 
 
     def search(n, shear):
         """The row search of the first ``n`` seeds, right windows sheared by ``shear``."""
-        return map_chunks(
-            lambda qs, cs, ys, ss: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys,
-                                                 float(outer), outer, GUIDED_BACK,
-                                                 float(min_zncc), float(margin), EPS,
-                                                 float(config.gain_tolerance),
-                                                 GUIDED_SEED_CLIP, False,
-                                                 int(GUIDED_SHOULDER), ss),
-            (q[:n], centre[:n], yoff[:n], np.full(n, float(shear))), threads,
-            order=row_order(pts_l[q[:n], 1]))
+        return row_searches(g_l, g_r, pts_l, desc_l, q[:n], centre[:n], yoff[:n], outer,
+                            outer, GUIDED_BACK, min_zncc, margin, EPS, config.gain_tolerance,
+                            GUIDED_SEED_CLIP, False, GUIDED_SHOULDER,
+                            np.full(n, float(shear)), threads=threads)
 
     status, best, second, xr, sim = search(len(q), 0.0)
     budget_left = int(max_work) - len(q) * columns
@@ -512,9 +499,9 @@ def seed_search(pts_l, pts_r, desc_l, g_l, g_r, query_idx, train_idx, y_offset, 
                                  threads=threads)
     gx = np.clip(gx, -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
     gy = np.clip(gy, -GUIDED_GRADIENT_LIMIT, GUIDED_GRADIENT_LIMIT)
-    u = _k.continuity_field(qpts, xr, yr, sim, off, idx, np.arange(len(q)), m_left, m_right,
-                            m_sim, config.theta, config.slope, config.similarity_weight,
-                            config.input_bias, gx, gy)
+    u = continuity_fields(qpts, xr, yr, sim, off, idx, np.arange(len(q)), m_left, m_right,
+                          m_sim, config.theta, config.slope, config.similarity_weight,
+                          config.input_bias, gx, gy, threads=threads)
     field = np.nan_to_num(u, nan=-np.inf)
     keep = field > min_field
     planes = none

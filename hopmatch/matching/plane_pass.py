@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._kernels import guided as _k
-from .._threads import map_chunks, row_order
+from .guided_kernels import continuity_fields, row_searches
 from .guided_results import GuidedMatches, accepted_matches, empty_guided
 from .neighbourhood import half_sides, query_neighbours
 from .similarity import EPS
@@ -108,21 +108,15 @@ def plane_pass(pts_l, desc_l, g_l, g_r, m_left, m_right, m_sim, unmatched, y_off
     gx = np.ascontiguousarray(np.clip(coef[:, 1], -gradient_limit, gradient_limit))
     gy = np.ascontiguousarray(np.clip(coef[:, 2], -gradient_limit, gradient_limit))
     yoff = np.ascontiguousarray(np.asarray(y_offset, dtype=np.float64)[q])
-    status, best, second, xr, sim = map_chunks(
-        lambda qs, cs, ys, ss: _k.row_search(g_l, g_r, pts_l, desc_l, qs, cs, ys,
-                                             float(PLANE_PASS_RADIUS), int(search), int(back),
-                                             float(PLANE_PASS_ZNCC), float(PLANE_PASS_MARGIN),
-                                             EPS, float(config.gain_tolerance), False, False,
-                                             int(shoulder), ss),
-        (q, centre, yoff, gy), threads, order=row_order(y))
+    status, best, second, xr, sim = row_searches(
+        g_l, g_r, pts_l, desc_l, q, centre, yoff, PLANE_PASS_RADIUS, search, back,
+        PLANE_PASS_ZNCC, PLANE_PASS_MARGIN, EPS, config.gain_tolerance, False, False,
+        shoulder, gy, threads=threads)
     ok = status == _k.FOUND
     yr = y - yoff
-    u = map_chunks(
-        lambda pq, xq, yq, sq, rq, gxq, gyq: (_k.continuity_field(
-            pq, xq, yq, sq, off, idx, rq, m_left, m_right,
-            np.asarray(m_sim, dtype=np.float64), config.theta, config.slope,
-            config.similarity_weight, config.input_bias, gxq, gyq),),
-        (np.ascontiguousarray(pts_l[q]), np.where(ok, xr, np.nan), yr, sim, rows, gx, gy),
-        threads)[0]
+    u = continuity_fields(np.ascontiguousarray(pts_l[q]), np.where(ok, xr, np.nan), yr, sim,
+                          off, idx, rows, m_left, m_right, np.asarray(m_sim, dtype=np.float64),
+                          config.theta, config.slope, config.similarity_weight,
+                          config.input_bias, gx, gy, threads=threads)
     keep = ok & (np.nan_to_num(u, nan=-np.inf) > PLANE_PASS_FIELD)
     return accepted_matches(keep, q, xr, yr, u, best, second, sim)

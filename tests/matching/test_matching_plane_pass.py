@@ -11,7 +11,10 @@ from synthetic_pairs import texture
 
 from hopmatch import _threads
 from hopmatch.feature.descriptor import gradient_windows
+from hopmatch.matching import guided as guided_module
 from hopmatch.matching import plane_pass as pp
+from hopmatch.matching.guided_results import empty_guided
+from hopmatch.matching.neighbourhood import query_neighbours
 from hopmatch.matching.params import matcher_config
 from hopmatch.matching.plane_pass import plane_pass, plane_support
 
@@ -60,7 +63,6 @@ def test_plane_support_matches_the_reference():
                     np.where(which == 1, 20.0 - 0.05 * matched[:, 0], rng.uniform(0, 40, 300)))
     disp = disp + rng.uniform(-0.9, 0.9, len(disp))
     queries = np.c_[rng.uniform(0, 200, 80), rng.uniform(0, 120, 80)].astype(np.float32)
-    from hopmatch.matching.neighbourhood import query_neighbours
     off, idx = query_neighbours(queries, matched, np.float32(20), np.float32(10))
     got = plane_support(off, idx, matched, disp, planes, 1.0)
     want = support_reference(queries, matched, disp, planes, 20, 10, 1.0)
@@ -154,9 +156,6 @@ def test_guided_rounds_run_the_plane_pass_on_the_seeds_planes(on, monkeypatch):
     """guided_rounds hands the receding planes the seeds found to the plane pass, with the
     left points still unmatched and every match so far, and returns what it found (and
     what the round after it propagated); with ``GUIDED_PLANE_PASS`` off it is not run."""
-    from hopmatch.matching import guided as guided_module
-    from hopmatch.matching.guided_results import empty_guided
-
     monkeypatch.setattr(guided_module, "GUIDED_PLANE_PASS", on)
     g_l, g_r, pts, desc = receding_pair()
     config = matcher_config({"max_disparity": 40})
