@@ -21,6 +21,7 @@ from .._kernels import guided as _k
 from .guided_kernels import continuity_fields, row_searches
 from .guided_results import GuidedMatches, accepted_matches, empty_guided
 from .neighbourhood import half_sides, query_neighbours
+from .planes import plane_residuals
 from .similarity import EPS
 
 #: Largest distance (px of disparity) of a matched neighbour from the plane for it to
@@ -54,8 +55,8 @@ def plane_support(offsets, idx, m_left, m_disp, planes,
     d = np.asarray(m_disp, dtype=np.float64)[idx]
     best = np.full(n, -1, dtype=np.int64)
     count = np.zeros(n, dtype=np.int64)
-    for k, (a, b, c) in enumerate(np.asarray(planes, dtype=np.float64).reshape(-1, 3)):
-        on = np.abs(d - (a + b * p[:, 0] + c * p[:, 1])) <= tolerance
+    for k, coef in enumerate(np.asarray(planes, dtype=np.float64).reshape(-1, 3)):
+        on = plane_residuals(p, d, coef) <= tolerance
         cnt = np.bincount(owner[on], minlength=n)
         better = cnt > count
         best[better] = k
