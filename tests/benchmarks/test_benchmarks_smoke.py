@@ -362,6 +362,14 @@ def test_chessboard_geometry_smoke(shared_data):
                  r"[\d.]+% of \d+ inside; SIFT median signed distance [+-][\d.]+ px outside "
                  r"\(\d+\), [+-][\d.]+ px inside \(\d+\)")
     assert len(re.findall(area, out)) == 2
+    on = r"([\d.]+% of \d+|0 of 0)"
+    lens = table_row("0[12]", rf"[+-]{NUM} \({NUM}\)", rf"[+-]{NUM}", on, on, on)
+    assert_lines(out, r"## Raw chessboard pairs: one lens-distortion parameter estimated from "
+                      r"the pair",
+                 rf"lam fitted to the calibration \(mean of both cameras\): [+-]{NUM}",
+                 r"pooled: raw [\d.]+% of \d+; estimated lam [\d.]+% of \d+; calibration's "
+                 r"lam [\d.]+% of \d+")
+    assert len(re.findall(lens, out)) == 2
 
 
 def test_dask_batch_smoke():
