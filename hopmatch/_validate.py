@@ -19,6 +19,8 @@ IMAGE_DTYPES = (np.uint8, np.uint16, np.int16, np.float32, np.float64)
 
 #: Largest finite float32: float64 values beyond it cannot be represented.
 _F32_MAX = float(np.finfo(np.float32).max)
+#: Smallest positive float32 (subnormal): float64 values below half of it become 0.
+_F32_TRUE_MIN = float(np.finfo(np.float32).smallest_subnormal)
 
 #: Largest |coordinate| the matcher accepts (2**20 = 1,048,576 pixels). The network's
 #: neighbour grid counts cells in int64; beyond this bound a spread-out point set (or a zero
@@ -46,7 +48,8 @@ def _native(arr: np.ndarray) -> np.ndarray:
 
 def _to_float32(arr: np.ndarray, name: str, what: str) -> np.ndarray:
     """float32 C-contiguous copy of a numeric array; values beyond the float32 range (or NaN,
-    inf) are refused with a message naming ``name``."""
+    inf), and float64 arrays whose every value is too small for float32 (all would become
+    0), are refused with a message naming ``name``."""
     if arr.dtype == np.float64 and arr.size:
         with np.errstate(invalid="ignore"):
             big = np.abs(arr).max()
@@ -54,6 +57,12 @@ def _to_float32(arr: np.ndarray, name: str, what: str) -> np.ndarray:
             raise InvalidArgumentError(
                 f"`{name}` holds {what} up to {big:.3g}, beyond the float32 range "
                 f"(+-{_F32_MAX:.3g}); rescale them first"
+            )
+        if 0.0 < big < _F32_TRUE_MIN:  # every value would become 0 in float32
+            raise InvalidArgumentError(
+                f"`{name}` holds {what} no larger than {big:.3g} in magnitude, below the "
+                f"float32 range (smallest {_F32_TRUE_MIN:.3g}): in float32 they are all 0; "
+                f"rescale them first"
             )
     with np.errstate(over="ignore", invalid="ignore"):
         out = np.ascontiguousarray(arr, dtype=np.float32)

@@ -80,6 +80,9 @@ CASES = [
      InvalidArgumentError, r"`image`.*infinite"),
     ("image-beyond-float32", lambda: DET.detect(np.full((9, 9), 1e300)),
      InvalidArgumentError, r"`image`.*beyond the float32 range.*rescale"),
+    ("image-below-float32", lambda: DET.detect(np.full((9, 9), 1e-300)),
+     InvalidArgumentError, r"`image`.*no larger than 1e-300.*below the float32 range.*all 0"
+                           r".*rescale"),
     ("gradient-fn-overflow",
      lambda: hopmatch.deriche_gradient(np.full((9, 9), 3e38, np.float32) *
                                        (np.arange(9) % 2)[None, :].astype(np.float32)),

@@ -99,6 +99,8 @@ def border_width(alpha: float) -> int:
 #: 1st and 99th percentiles, that of an 8-bit image using most of its range (the shared
 #: scenes spread over 147 to 243, see docs/robustness.md, "Gain and dtype").
 INTENSITY_RANGE = 230.0
+#: Largest finite float32 (a scale factor beyond it is applied in float64).
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 #: Percentiles whose distance measures the spread: robust to a few saturated pixels, and
 #: on the shared pairs closer between the two views of one scene than the standard
 #: deviation, which large bright or dark regions entering one view only move.
@@ -198,8 +200,33 @@ def normalised_intensity(gray: np.ndarray) -> np.ndarray:
     img = gray.astype(np.float32)
     spread = intensity_spread(gray) if img.size else 0.0
     if spread > 0.0 and np.isfinite(spread):
-        img *= np.float32(INTENSITY_RANGE / spread)
+        factor = INTENSITY_RANGE / spread
+        if factor <= FLOAT32_MAX:
+            img *= np.float32(factor)
+        else:  # grey levels near float32's smallest (1e-40): the factor itself overflows
+            img = (gray.astype(np.float64) * factor).astype(np.float32)
     return img
+
+
+#: Float grey images whose levels spread over less than this (:func:`intensity_spread`)
+#: are measured normalised by the steps that read grey levels (:func:`measurable_gray`).
+MIN_MEASURED_SPREAD = 1e-2
+
+
+def measurable_gray(gray: np.ndarray) -> np.ndarray:
+    """The validated grey image ``gray`` as the steps that read grey levels after the
+    network (the sub-pixel refinement, the half-window test) measure it: itself, or, for a
+    float image whose grey levels spread over less than :data:`MIN_MEASURED_SPREAD`,
+    :func:`normalised_intensity`. Their correlations do not depend on the gain, but their
+    flat-window floors are absolute: float images of levels near 1e-8 gave no match at all.
+    Integer images (whose spread is at least one level unless flat) and float images of
+    ordinary scale are returned as they are, so their results do not change."""
+    if gray.dtype.kind != "f" or not gray.size:
+        return gray
+    spread = intensity_spread(gray)
+    if 0.0 < spread < MIN_MEASURED_SPREAD:
+        return normalised_intensity(gray)
+    return gray
 
 
 def feature_image(gray: np.ndarray, on: str, alpha: float, omega: float,

@@ -33,6 +33,9 @@ STEPS = 9
 #: precision, so it is left as it is (docs/parameters.md, "Two views of unequal
 #: sharpness", measures 0, 0.5, 0.6 and 0.7).
 RESIDUAL_SIGMA = 0.6
+#: Grey levels beyond which :func:`sharpness` sums in float64: its float32 sums of a few
+#: hundred thousand differences overflow from about 1e32.
+FLOAT32_SUMS = 1e30
 
 
 @dataclass(frozen=True)
@@ -74,6 +77,8 @@ def sharpness(band: np.ndarray, valid: np.ndarray | None = None) -> float:
     NaN for an image without horizontal change (or narrower than 5 px).
     """
     rows = band[::ROW_STEP]
+    if rows.size and float(np.max(np.abs(rows))) > FLOAT32_SUMS:  # sums overflow float32
+        rows = rows.astype(np.float64)
     if rows.shape[1] < 5:
         return float("nan")
     second = np.abs(rows[:, :-4] - 2.0 * rows[:, 2:-2] + rows[:, 4:])

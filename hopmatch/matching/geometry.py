@@ -122,6 +122,10 @@ def symmetric_epipolar_error(F, left, right) -> np.ndarray:
     return np.where(np.isfinite(d), d, np.inf)
 
 
+#: :func:`to_uint8` stretches float images whose levels span less than this in float64.
+TINY_SPAN = 1e-30
+
+
 def to_uint8(gray: np.ndarray) -> np.ndarray:
     """A grey image as uint8 for OpenCV's feature detectors (16-bit and float images are
     stretched from their minimum to their maximum)."""
@@ -129,8 +133,12 @@ def to_uint8(gray: np.ndarray) -> np.ndarray:
         return gray
     g = gray.astype(np.float32)
     lo, hi = float(g.min()), float(g.max())
-    return np.zeros(g.shape, np.uint8) if hi <= lo else cv2.convertScaleAbs(
-        g, alpha=255.0 / (hi - lo), beta=-255.0 * lo / (hi - lo))
+    if hi <= lo:
+        return np.zeros(g.shape, np.uint8)
+    if hi - lo < TINY_SPAN:  # levels near float32's smallest: OpenCV's gain would overflow
+        stretched = (gray.astype(np.float64) - lo) * (255.0 / (hi - lo))
+        return np.clip(np.rint(stretched), 0, 255).astype(np.uint8)
+    return cv2.convertScaleAbs(g, alpha=255.0 / (hi - lo), beta=-255.0 * lo / (hi - lo))
 
 
 def pyramid_level(gray: np.ndarray, max_side: int):

@@ -18,7 +18,7 @@ from ..errors import (
     UnrectifiedPairWarning,
 )
 from ..feature.detector import DericheMoravecDetector
-from ..feature.gradient import normalised_intensity
+from ..feature.gradient import measurable_gray, normalised_intensity
 from ..feature.sharpness import equalise_sharpness
 from . import guided, halves
 from .channels import channels_kept, match_both_greys
@@ -410,6 +410,7 @@ def beyond_network(result: StereoMatchResult, descriptors, gradients, grays,
     offset = fit_row_offset(ml, dy) if config.vertical_model == "plane" else median_offset(dy)
     if not offset.is_residual():
         return dataclasses.replace(result, row_offset=offset)
+    grays = (measurable_gray(np.asarray(grays[0])), measurable_gray(np.asarray(grays[1])))
     n_right = len(pts_r)
     gm = None
     if config.guided:

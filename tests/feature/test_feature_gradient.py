@@ -94,6 +94,57 @@ def test_matches_do_not_depend_on_the_right_images_gain_or_dtype(label, make):
     assert np.mean(np.abs(got.disparities - 6) <= 1) > 0.97
 
 
+@pytest.mark.parametrize("rectified", [True, False])
+def test_matches_do_not_depend_on_the_scale_of_float_images(rectified):
+    """Float32 pairs whose grey levels are scaled by 1e36 down to 1e-40 (subnormal) match
+    as the same pair at scale 1, with no RuntimeWarning: before 2026-12-06 levels below
+    about 1e-8 gave no match (the refinement's and the half-window test's flat-window
+    floors are absolute), 1e-40 overflowed the normalisation's factor and the bootstrap's
+    stretch to uint8, and 1e38 overflowed the sharpness measure's sums."""
+    left, right = (im.astype(np.float32) for im in _pair())
+    kw = {"max_disparity": 16} if rectified else {"rectified": False}
+    want = hopmatch.match_stereo(left, right, **kw)
+    assert len(want.matches) > 500
+    for scale in (1e36, 1e-10, 1e-25, 1e-40):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)
+            warnings.simplefilter("error", hopmatch.errors.HopmatchWarning)
+            got = hopmatch.match_stereo((left * np.float32(scale)).astype(np.float32),
+                                        (right * np.float32(scale)).astype(np.float32), **kw)
+        assert abs(len(got.matches) - len(want.matches)) <= 0.01 * len(want.matches), scale
+        assert np.mean(np.abs(got.disparities - 6) <= 1) > 0.97, scale
+
+
+def test_measurable_gray_normalises_only_float_images_of_tiny_spread():
+    from hopmatch.feature.gradient import MIN_MEASURED_SPREAD, measurable_gray
+    left, _ = _pair()
+    assert measurable_gray(left) is left
+    ordinary = left.astype(np.float32) / 255
+    assert measurable_gray(ordinary) is ordinary
+    tiny = (left.astype(np.float64) * (0.1 * MIN_MEASURED_SPREAD / 255)).astype(np.float32)
+    np.testing.assert_allclose(measurable_gray(tiny), normalised_intensity(left), rtol=1e-5)
+    flat = np.full((10, 10), 1e-20, np.float32)
+    assert measurable_gray(flat) is flat
+
+
+def test_sharpness_and_bootstrap_stretch_hold_at_float32_extremes():
+    """The sharpness ratio and the bootstrap's uint8 stretch do not depend on the scale of
+    the grey levels, up to float32's largest and down to its subnormals (references: the
+    same image at scale 1)."""
+    from hopmatch.feature.sharpness import sharpness
+    from hopmatch.matching.geometry import to_uint8
+    left, _ = _pair()
+    base = left.astype(np.float32)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        big = (left.astype(np.float64) * (3e38 / 255)).astype(np.float32)
+        assert sharpness(big) == pytest.approx(sharpness(base), rel=1e-5)
+        sub = (left.astype(np.float64) * (1e-40 / 255)).astype(np.float32)
+        stretched = to_uint8(sub)
+    want = to_uint8(base)
+    assert np.mean(np.abs(stretched.astype(int) - want.astype(int)) <= 1) > 0.999
+
+
 def test_both_images_as_floats_in_unit_range_match_as_uint8():
     left, right = _pair()
     want = hopmatch.match_stereo(left, right, max_disparity=16)
