@@ -45,6 +45,7 @@ from .unrectified import (
     match_unrectified,
     rectified_canvas,
     shared_frame,
+    warpable,
 )
 from .vertical import fit_row_offset, median_offset
 
@@ -218,7 +219,8 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                                       mask_left, mask_right, record_energy)
     auto = (rectified is None and config.max_disparity is None
             and "min_disparity" not in match_params and config.preset != "paper"
-            and (matcher is None or config.min_disparity in (None, 0.0)))
+            and (matcher is None or config.min_disparity in (None, 0.0))
+            and warpable(np.shape(left), np.shape(right)))  # else rows (or F's band) only
     may_switch = auto and fundamental is None
     if auto and fundamental is not None:
         # the rows lined up by the given F, as rectified=False does with its own; when too

@@ -40,6 +40,7 @@ import cv2
 import numpy as np
 
 from .._validate import as_mask, check_coordinate_range
+from ..errors import InvalidArgumentError
 from ..feature.descriptor import gradient_windows
 from ..feature.padding import black_padding, fill_padding
 from ..feature.sharpness import SharpnessMatch, equalise_sharpness
@@ -110,6 +111,31 @@ SEARCH_ORDER = ("aligned", "rectified", "epipolar")
 #: median hides. Rows that drift more are searched only when no rectification near the
 #: identity is found (docs/pipelines.md, "A left view turned").
 ROW_DRIFT = 0.5
+#: OpenCV's warps (``cv2.warpAffine``, ``cv2.warpPerspective``) take images, given and
+#: made, of fewer than this many pixels a side (``SHRT_MAX``).
+WARP_LIMIT = 32767
+
+
+def warpable(*shapes) -> bool:
+    """Whether images of these ``(H, W, ...)`` shapes fit OpenCV's warps
+    (:data:`WARP_LIMIT`); shapes that are not of an image count as fitting (the
+    validation of the images refuses them)."""
+    for shape in shapes:
+        if len(shape) >= 2 and max(int(shape[0]), int(shape[1])) >= WARP_LIMIT:
+            return False
+    return True
+
+
+def check_warpable(image: np.ndarray, name: str) -> None:
+    """Raise :class:`~hopmatch.errors.InvalidArgumentError` when the grey image ``image``
+    (``name``) is too large a side for OpenCV's warps, which the unrectified path needs."""
+    if not warpable(np.shape(image)):
+        h, w = np.shape(image)[:2]
+        raise InvalidArgumentError(
+            f"`{name}` is {w} x {h} px: an unrectified pair is brought into one frame by "
+            f"OpenCV's warps, which take images of at most {WARP_LIMIT - 1} px a side; crop "
+            f"or downscale the pair, or rectify it and pass rectified=True"
+        )
 
 
 def shift_x(shift: float) -> np.ndarray:
@@ -232,7 +258,8 @@ def search_frame(geometry, to_aligned, size):
             if H is None:
                 continue
             H1, H2 = H
-            if not near_identity((H1, H2), size):
+            if not (near_identity((H1, H2), size)
+                    and max(canvas((H1, H2), size)[1]) < WARP_LIMIT):
                 continue
             rl, ra = transform_points(il, H1), transform_points(ia, H2)
         elif mode == "aligned":
@@ -342,6 +369,8 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
     t0 = time.perf_counter()
     left_gray = detector.gray_image(left, "left")
     right_gray = detector.gray_image(right, "right")
+    check_warpable(left_gray, "left")
+    check_warpable(right_gray, "right")
     m_l = as_mask(mask_left, left_gray.shape, "mask_left")
     m_r = as_mask(mask_right, right_gray.shape, "mask_right")
     size = left_gray.shape[::-1]
@@ -476,6 +505,19 @@ def shared_frame(frame: SearchFrame, pts_l, pts_a):
     return left, right, grays, grads, (a, b)
 
 
+def canvas(maps, size):
+    """``(T, (W, H))``: the whole-pixel translation ``T`` that brings to (0, 0) the corner
+    of the box holding a ``size`` (``(w, h)``) frame mapped by each 3 x 3 map of ``maps``,
+    and that box's size (the canvas of :func:`rectified_canvas`)."""
+    w, h = size
+    corners = np.array([[0, 0], [w - 1, 0], [0, h - 1], [w - 1, h - 1]], np.float64)
+    both = np.concatenate([transform_points(corners, H) for H in maps])
+    x0, y0 = np.floor(both.min(axis=0))
+    x1, y1 = np.ceil(both.max(axis=0))
+    T = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]])
+    return T, (int(x1 - x0) + 1, int(y1 - y0) + 1)
+
+
 def rectified_canvas(frame: SearchFrame, pts_l, pts_a):
     """``(left points, right points, grays, gradients, descriptors, to_right)`` of a
     ``'rectified'`` frame: the left image warped by ``T H1`` and the aligned right image by
@@ -489,12 +531,7 @@ def rectified_canvas(frame: SearchFrame, pts_l, pts_a):
     guided pass, the refinement) then see a rectified pair."""
     H1, H2 = frame.maps
     h, w = np.shape(frame.grays[0])[:2]
-    corners = np.array([[0, 0], [w - 1, 0], [0, h - 1], [w - 1, h - 1]], np.float64)
-    both = np.concatenate((transform_points(corners, H1), transform_points(corners, H2)))
-    x0, y0 = np.floor(both.min(axis=0))
-    x1, y1 = np.ceil(both.max(axis=0))
-    T = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]])
-    size = (int(x1 - x0) + 1, int(y1 - y0) + 1)
+    T, size = canvas((H1, H2), (w, h))
 
     def warp(image, H, fill):
         return np.ascontiguousarray(cv2.warpPerspective(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 import warnings
 
 import cv2
@@ -496,3 +497,49 @@ def test_a_pair_whose_left_view_is_turned_is_searched_on_rectified_rows(shared_d
     err = np.hypot(back[:, 0] - gt - res.matched_right[:, 0], back[:, 1]
                    - res.matched_right[:, 1])
     assert known.sum() > 800 and np.mean(err[known] <= 1.0) > 0.95
+
+
+def _wide_pair(width, height=24, shift=5):
+    rng = np.random.default_rng(11)
+    img = cv2.GaussianBlur(rng.uniform(0, 255, (height, width)).astype(np.float32), (0, 0),
+                           1.2).astype(np.uint8)
+    return img, np.ascontiguousarray(np.roll(img, -shift, axis=1))
+
+
+def test_a_pair_too_wide_for_opencvs_warps_is_refused_unrectified_and_searched_on_rows():
+    """OpenCV's warps take images of fewer than 32767 px a side (SHRT_MAX): before
+    2026-12-06 ``rectified=False`` on a 40 x 40000 pair leaked cv2.error from
+    cv2.warpAffine. Now it is refused before any work, naming the image; the defaults
+    (``rectified=None``) and a given F search the rows (or F's band) and never warp."""
+    left, right = _wide_pair(u.WARP_LIMIT)
+    small = left[:, :200].copy()
+    for args, name in (((left, right), "left"), ((small, right), "right")):
+        t0 = time.perf_counter()
+        with pytest.raises(InvalidArgumentError, match=rf"`{name}` is \d+ x 24 px.*OpenCV's "
+                                                       r"warps.*at most 32766 px a side"):
+            hopmatch.match_stereo(*args, rectified=False)
+        assert time.perf_counter() - t0 < 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", hopmatch.errors.HopmatchWarning)
+        rows = hopmatch.match_stereo(left, right)
+        band = hopmatch.match_stereo(left, right, fundamental_matrix=np.array(
+            [[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]))
+    for result in (rows, band):
+        assert len(result.matches) > 1000
+        assert np.median(result.disparities) == pytest.approx(5.0, abs=0.05)
+    assert u.warpable((24, u.WARP_LIMIT - 1), (u.WARP_LIMIT - 1, 3))
+    assert not u.warpable((24, 100), (u.WARP_LIMIT, 3))
+    assert u.warpable(())  # not an image: left to the image validation
+
+
+def test_the_canvas_holds_every_mapped_corner():
+    """canvas: the box of a frame's corners under each map, moved to (0, 0) by T; its
+    size is what search_frame checks against OpenCV's warp limit."""
+    H1 = np.array([[1.0, 0.05, -30.0], [0.0, 1.0, 12.0], [0.0, 0.0, 1.0]])
+    H2 = np.array([[0.97, 0.0, 40.0], [0.02, 1.0, -7.0], [1e-5, 0.0, 1.0]])
+    T, (cw, ch) = u.canvas((H1, H2), (300, 200))
+    corners = np.array([[0, 0], [299, 0], [0, 199], [299, 199]], np.float64)
+    placed = np.concatenate([transform_points(corners, T @ H) for H in (H1, H2)])
+    assert placed.min() >= 0.0 and placed.min(axis=0).max() < 1.0
+    assert (placed[:, 0] <= cw - 1).all() and (placed[:, 1] <= ch - 1).all()
+    assert placed[:, 0].max() > cw - 2 and placed[:, 1].max() > ch - 2
