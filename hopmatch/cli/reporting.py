@@ -141,6 +141,8 @@ CLI_ADVICE = (
      "its epipolar geometry estimated from the images as --unrectified does (F in "
      "fundamental_matrix.txt); give a disparity range (--max-disparity) to search its rows "
      "anyway"),
+    ("crop or downscale the pair, or rectify it and pass rectified=True",
+     "crop or downscale the images, or rectify them and match them without --unrectified"),
     ("rectify the pair first or call setFundamentalMatrix(F)",
      "rectify the images first (cv2.stereoRectify and cv2.remap), or give the pair's "
      "fundamental matrix with --fundamental-matrix FILE"),
@@ -247,7 +249,8 @@ def explain(exc: BaseException, labels: dict) -> CLIError:
     to what the user typed (``--window-size``, the file name); ``labels[""]`` is the
     fallback. The error's ``argument`` attribute chooses the label when it names one of
     ``labels``; otherwise the name quoted first in the message does. Every other name of
-    ``labels`` in the problem is replaced by its label too.
+    ``labels`` in the problem is replaced by its label too, and the library's Python advice
+    by its command-line form (:data:`CLI_ADVICE`).
     """
     message = str(exc)
     argument = getattr(exc, "argument", None)
@@ -267,6 +270,8 @@ def explain(exc: BaseException, labels: dict) -> CLIError:
         problem = problem.replace(f"`{other}`", other_label)
         if "_" in other and other_label.startswith("--"):
             problem = re.sub(_bare(other), other_label, problem)
+    for python, cli in CLI_ADVICE:
+        problem = problem.replace(python, cli)
     return CLIError(label, problem)
 
 

@@ -90,6 +90,34 @@ def test_explain_falls_back_to_the_message():
     assert (err.where, err.problem) == ("l.png, r.png", "nothing to match on")
 
 
+def test_explain_gives_the_command_line_advice(tmp_path):
+    """An error whose advice is written for Python (``rectified=True``) reads as what to do
+    on the command line: a pair too wide for OpenCV's warps given to --unrectified."""
+    import cv2
+    import numpy as np
+
+    from hopmatch.cli.reporting import explain
+    from hopmatch.errors import InvalidArgumentError
+
+    exc = InvalidArgumentError("`left` is 40000 x 40 px: ...; crop or downscale the pair, or "
+                               "rectify it and pass rectified=True")
+    err = explain(exc, LABELS)
+    assert (err.where, err.problem) == (
+        "l.png", "is 40000 x 40 px: ...; crop or downscale the images, or rectify them and "
+                 "match them without --unrectified")
+    img = np.zeros((24, 32767), np.uint8)
+    img[:, ::7] = 255
+    for name in ("l.png", "r.png"):
+        cv2.imwrite(str(tmp_path / name), img)
+    res = run("match", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o",
+              str(tmp_path / "out"), "--unrectified")
+    assert res.returncode == 2
+    assert "l.png: is 32767 x 24 px" in res.stderr
+    assert "rectify them and match them without --unrectified" in res.stderr
+    assert "cv2.error" not in res.stderr and "rectified=True" not in res.stderr
+    assert not (tmp_path / "out").exists()  # refused before any output was made
+
+
 def test_guard_aborts_outputs_and_translates(tmp_path):
     from hopmatch.cli.outputs import Outputs
     from hopmatch.cli.reporting import CLIError, guard
