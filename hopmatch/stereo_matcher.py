@@ -200,7 +200,7 @@ class StereoHopfield(Configurable):
         ------
         InvalidArgumentError, InvalidTypeError
             Bad images (as :func:`~hopmatch.match_stereo`), a ``disparity`` array of
-            another shape or dtype, or a ``dtype`` other than the two above.
+            another shape or dtype, or read-only, or a ``dtype`` other than the two above.
 
         Warns
         -----
@@ -211,6 +211,8 @@ class StereoHopfield(Configurable):
         from .stereo.depth import sparse_disparity_image  # hopmatch.stereo loads on first use
 
         out_dtype = self._output_dtype(disparity, dtype)
+        if disparity is not None:  # refused before the work, not when it is filled
+            _check_output(disparity, left)
         detector, matcher = stereo_pipeline(self.pipeline_parameters(), "StereoHopfield")
         result = match_stereo(left, right, detector=detector, matcher=matcher)
         self._last = result
@@ -282,6 +284,20 @@ class StereoHopfield(Configurable):
     def __setstate__(self, state):
         super().__setstate__(state)
         self._last = None
+
+
+def _check_output(disparity: np.ndarray, left) -> None:
+    """Raise :class:`~hopmatch.errors.InvalidArgumentError` unless the output array
+    ``disparity`` has the left image's ``(H, W)`` and can be written (a left image that is
+    not one is left to :func:`~hopmatch.match_stereo` to refuse)."""
+    if len(np.shape(left)) >= 2 and disparity.shape != _left_shape(left):
+        raise InvalidArgumentError(
+            f"`disparity` must have the left image's shape {_left_shape(left)} (H, W), got "
+            f"{disparity.shape}", argument="disparity")
+    if not disparity.flags.writeable:
+        raise InvalidArgumentError(
+            "`disparity` must be writeable (it is filled in place), got a read-only array; "
+            "pass a copy, or no output array", argument="disparity")
 
 
 def _left_shape(left) -> tuple[int, int]:

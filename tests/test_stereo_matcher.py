@@ -148,6 +148,11 @@ def test_zero_disparities_means_hopmatchs_own_range(pair):
     ({"disparity": [[0]]}, InvalidTypeError, "NumPy array"),
     ({"disparity": np.zeros((120, 160), np.int16), "dtype": np.float32},
      InvalidArgumentError, "give one of them"),
+    # before 2026-12-06 these two failed only when filled, with NumPy's bare ValueError
+    ({"disparity": np.zeros((5, 5), np.int16)}, InvalidArgumentError,
+     r"`disparity` must have the left image's shape \(120, 160\) \(H, W\), got \(5, 5\)"),
+    ({"disparity": np.frombuffer(bytes(120 * 160 * 4), np.float32).reshape(120, 160)},
+     InvalidArgumentError, "`disparity` must be writeable.*read-only"),
 ])
 def test_compute_output_errors(pair, kwargs, error, words):
     with pytest.raises(error, match=words):
