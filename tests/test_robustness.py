@@ -347,6 +347,19 @@ def test_all_zero_mask_gives_empty_result():
                     "pixel"]
 
 
+def test_a_mask_smaller_than_a_window_says_so():
+    """A mask that keeps fewer pixels than one descriptor window holds is named as the
+    cause (it was taken for faint texture before 2026-12-06)."""
+    mask = np.zeros(IMG.shape, bool)
+    mask[30, 40] = True
+    with pytest.warns(FewMatchesWarning) as caught:
+        res = match_stereo(IMG, IMG, mask_left=mask)
+    assert res.matches == ()
+    said = [str(w.message) for w in caught if w.category is FewMatchesWarning]
+    assert said == ["no matches: the left image has no keypoint: its mask keeps only 1 "
+                    "pixel, fewer than one of the detector's 9 x 9 windows"]
+
+
 def test_no_keypoints_from_texture_names_the_threshold():
     with pytest.warns(FewMatchesWarning, match="left image has no keypoint: its texture is "
                       "too faint for the detector .lower its `threshold`"):

@@ -441,13 +441,18 @@ def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
 def no_keypoints_cause(gray: np.ndarray, mask, window: int) -> str:
     """Why the detector found no point on the grey image ``gray`` (with ``mask``, None or
     the checked boolean mask, and descriptor windows of ``window`` a side): too small for
-    the windows, masked out, one grey level, or no texture the detector answers to."""
+    the windows, masked out (or all but fewer pixels than a window holds), one grey level,
+    or no texture the detector answers to."""
     h, w = gray.shape[:2]
     if min(h, w) < window + 2:
         return (f"it is {w} x {h} px, too small for the detector's {window} x {window} "
                 "windows (and their margin)")
     if mask is not None and not np.any(mask):
         return "its mask excludes every pixel"
+    if mask is not None and int(np.count_nonzero(mask)) < window * window:
+        kept = int(np.count_nonzero(mask))
+        return (f"its mask keeps only {kept} pixel{'s' if kept > 1 else ''}, fewer than one "
+                f"of the detector's {window} x {window} windows")
     if float(np.min(gray)) == float(np.max(gray)):
         return f"it is flat (every pixel {float(np.min(gray)):g})"
     return ("its texture is too faint for the detector (lower its `threshold`, or check "
