@@ -19,7 +19,7 @@ IMAGE_DTYPES = (np.uint8, np.uint16, np.int16, np.float32, np.float64)
 
 #: Largest finite float32: float64 values beyond it cannot be represented.
 _F32_MAX = float(np.finfo(np.float32).max)
-#: Smallest positive float32 (subnormal): float64 values below half of it become 0.
+#: Smallest positive float32 (subnormal); float64 values below about half of it become 0.
 _F32_TRUE_MIN = float(np.finfo(np.float32).smallest_subnormal)
 
 #: Largest |coordinate| the matcher accepts (2**20 = 1,048,576 pixels). The network's
@@ -58,7 +58,7 @@ def _to_float32(arr: np.ndarray, name: str, what: str) -> np.ndarray:
                 f"`{name}` holds {what} up to {big:.3g}, beyond the float32 range "
                 f"(+-{_F32_MAX:.3g}); rescale them first"
             )
-        if 0.0 < big < _F32_TRUE_MIN:  # every value would become 0 in float32
+        if big > 0.0 and np.float32(big) == 0.0:  # every value would become 0 in float32
             raise InvalidArgumentError(
                 f"`{name}` holds {what} no larger than {big:.3g} in magnitude, below the "
                 f"float32 range (smallest {_F32_TRUE_MIN:.3g}): in float32 they are all 0; "
