@@ -17,7 +17,7 @@ import pytest
 
 import hopmatch
 from hopmatch import datasets
-from hopmatch.errors import InvalidArgumentError
+from hopmatch.errors import InvalidArgumentError, InvalidTypeError
 
 try:
     import hopmatch_gapi
@@ -91,6 +91,29 @@ class TestMatchPair:
             hopmatch_gapi.match_pair(left, right, max_disparty=3)
         with pytest.raises(InvalidArgumentError, match="window_size"):
             hopmatch_gapi.kernels(window_size=4)
+
+    def test_errors_found_while_matching_are_hopmatchs_not_cv2s(self):
+        """Raised inside the graph's kernel, hopmatch's errors came out as ``cv2.error:
+        Python kernel failed with error!`` (before 2026-12-06); match_pair raises them as
+        match_stereo does, and the same compiled graph then matches the next pair."""
+        left, right = textured_pair()
+        with pytest.raises(InvalidArgumentError, match="`left` and `right` must have the "
+                                                       "same height.*got 120 and 100"):
+            hopmatch_gapi.match_pair(left, right[:100], max_disparity=12)
+        with pytest.raises(InvalidArgumentError, match=r"`max_disparity` \(-5.0\) must not "
+                                                       r"be below `min_disparity` \(0.0\)"):
+            hopmatch_gapi.match_pair(left, right, max_disparity=-5)
+        assert_same_as_match_stereo(hopmatch_gapi.match_pair(left, right, max_disparity=12),
+                                    left, right, max_disparity=12)
+
+    def test_images_are_checked_before_the_graph(self):
+        """What G-API cannot take gave ``cv2.error`` ("Image format is invalid", "Failed
+        to obtain cv::Mat"); now hopmatch's own errors, naming the image."""
+        left, _ = textured_pair()
+        with pytest.raises(InvalidArgumentError, match="`right` must not be empty"):
+            hopmatch_gapi.match_pair(left, np.zeros((0, 5), np.uint8))
+        with pytest.raises(InvalidTypeError, match="`left` must be a numpy array"):
+            hopmatch_gapi.match_pair([[1, 2]], left)
 
 
 class TestOperations:

@@ -7,7 +7,9 @@ import threading
 import cv2 as cv
 import numpy as np
 
-from .kernels import kernels, split_params
+import hopmatch
+
+from .kernels import managed_kernels, split_params
 from .ops import GMatch
 
 __all__ = ["as_arrays", "match_pair", "stereo_graph"]
@@ -45,12 +47,17 @@ class _Compiled:
 
     def __init__(self, params: dict):
         self.graph = stereo_graph()
-        self.args = cv.gapi.compile_args(kernels(**params))
+        package, self.raised = managed_kernels(**params)
+        self.args = cv.gapi.compile_args(package)
         self.lock = threading.Lock()  # a GComputation is not safe to apply concurrently
 
     def __call__(self, left, right):
         with self.lock:
-            return self.graph.apply(cv.gin(left, right), args=self.args)
+            self.raised.error = None
+            out = self.graph.apply(cv.gin(left, right), args=self.args)
+            if self.raised.error is not None:  # hopmatch's own error, raised in the kernel
+                raise self.raised.error
+            return out
 
 
 _CACHE: dict = {}
@@ -80,8 +87,19 @@ def match_pair(left, right, **params) -> tuple[np.ndarray, np.ndarray, np.ndarra
         (x, y) of each match in the left and right image.
     disparities : (M,) float32 ndarray
         ``x_left - x_right``.
+
+    Raises
+    ------
+    InvalidArgumentError, InvalidTypeError
+        As :func:`hopmatch.match_stereo` raises them (unknown parameters, images that are
+        not images: before the graph; what only matching finds, such as a disparity range
+        below ``min_disparity``: after it, the error raised inside the graph's kernel),
+        never ``cv2.error``.
     """
-    split_params(params)  # unknown or invalid parameters fail here, with hopmatch's message
+    det_params, _ = split_params(params)  # unknown or invalid parameters fail here
+    detector = hopmatch.DericheMoravecDetector(**det_params)
+    for image, name in ((left, "left"), (right, "right")):  # as match_stereo would, before
+        detector.gray_image(image, name)  # G-API's own "Failed to obtain cv::Mat"...
     key = _key(params)
     with _CACHE_LOCK:
         compiled = _CACHE.get(key)

@@ -12,6 +12,7 @@ import cv2 as cv
 import numpy as np
 
 import hopmatch
+from hopmatch.errors import HopmatchError
 from hopmatch.matching.stereo_match import match_detected, split_parameters, stereo_pipeline
 
 from .ops import GDetect, GMatch, GMatchPoints
@@ -49,6 +50,28 @@ def _describe_and_match(detector, matcher, left, pts_left, right, pts_right):
     return res.matched_left, res.matched_right, res.disparities
 
 
+class RaisedInKernel:
+    """Where a kernel made by :func:`managed_kernels` leaves the hopmatch error it caught
+    (``error``, None when none), for :func:`~hopmatch_gapi.match_pair` to raise after the
+    graph: raised inside a G-API kernel, it would come out as ``cv2.error: Python kernel
+    failed with error!`` with the real message printed to stderr."""
+
+    def __init__(self):
+        self.error: HopmatchError | None = None
+
+
+def _no_match():
+    return np.zeros((0, 2), np.float32), np.zeros((0, 2), np.float32), np.zeros(0, np.float32)
+
+
+def managed_kernels(**params) -> tuple["cv.GKernelPackage", RaisedInKernel]:
+    """:func:`kernels` whose :class:`GMatch` kernel catches hopmatch's errors (bad images,
+    a disparity range that does not fit...) into the returned :class:`RaisedInKernel` and
+    gives no match instead; what :func:`~hopmatch_gapi.match_pair` compiles."""
+    raised = RaisedInKernel()
+    return _package(params, raised), raised
+
+
 def kernels(**params) -> "cv.GKernelPackage":
     """The kernel package of :class:`GDetect`, :class:`GMatch` and :class:`GMatchPoints`.
 
@@ -64,6 +87,12 @@ def kernels(**params) -> "cv.GKernelPackage":
         Pass it as ``args=cv.gapi.compile_args(kernels(...))`` to ``apply`` or
         ``compileStreaming``.
     """
+    return _package(params, None)
+
+
+def _package(params: dict, raised: RaisedInKernel | None) -> "cv.GKernelPackage":
+    """The kernel package of :func:`kernels`; with ``raised``, the :class:`GMatch`
+    kernel's hopmatch errors are kept there rather than raised."""
     det_params, match_params = split_params(params)
 
     @cv.gapi.kernel(GDetect)
@@ -77,7 +106,13 @@ def kernels(**params) -> "cv.GKernelPackage":
     class MatchKernel:
         @staticmethod
         def run(left, right):
-            res = hopmatch.match_stereo(left, right, **params)
+            try:
+                res = hopmatch.match_stereo(left, right, **params)
+            except HopmatchError as exc:
+                if raised is None:
+                    raise
+                raised.error = exc
+                return _no_match()
             return res.matched_left, res.matched_right, res.disparities
 
     @cv.gapi.kernel(GMatchPoints)
