@@ -73,6 +73,7 @@ import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
 from hopmatch.matching.geometry import (  # noqa: E402
     estimate_geometry,
+    magsac,
     symmetric_epipolar_error,
     transform_points,
 )
@@ -145,15 +146,21 @@ def inside(hull, points) -> np.ndarray:
                      for x, y in np.reshape(points, (-1, 2))], dtype=bool)
 
 
-def sift_matches(left, right, ratio=0.7):
-    """SIFT + BFMatcher ratio ``ratio``: (left, right) (N, 2) float64 points."""
-    sift = cv2.SIFT_create()
+def sift_matches(left, right, ratio=0.7, *, features=0, contrast=0.04, mutual=False):
+    """SIFT (``features`` points, 0: all; ``contrast`` its contrast threshold) + BFMatcher
+    ratio ``ratio``, with ``mutual`` only the matches that are also the best one back:
+    (left, right) (N, 2) float64 points."""
+    sift = cv2.SIFT_create(nfeatures=features, contrastThreshold=contrast)
     kl, dl = sift.detectAndCompute(left, None)
     kr, dr = sift.detectAndCompute(right, None)
-    if dl is None or dr is None or len(dr) < 2:
+    if dl is None or dr is None or len(dl) < 2 or len(dr) < 2:
         return np.zeros((0, 2)), np.zeros((0, 2))
-    good = [p[0] for p in cv2.BFMatcher().knnMatch(dl, dr, k=2)
-            if len(p) == 2 and p[0].distance < ratio * p[1].distance]
+    bf = cv2.BFMatcher(cv2.NORM_L2)
+    back = ({m[0].queryIdx: m[0].trainIdx for m in bf.knnMatch(dr, dl, k=1) if m}
+            if mutual else None)
+    good = [p[0] for p in bf.knnMatch(dl, dr, k=2)
+            if len(p) == 2 and p[0].distance < ratio * p[1].distance
+            and (back is None or back.get(p[0].trainIdx) == p[0].queryIdx)]
     return (np.float64([kl[m.queryIdx].pt for m in good]).reshape(-1, 2),
             np.float64([kr[m.trainIdx].pt for m in good]).reshape(-1, 2))
 
@@ -204,8 +211,7 @@ def division_distort(points, lam, centre, scale) -> np.ndarray:
     if lam == 0.0:
         return centre + scale * q
     disc = np.sqrt(np.maximum(1.0 - 4.0 * lam * ru * ru, 0.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        factor = np.where(ru > 1e-12, 2.0 / (1.0 + disc), 1.0)  # r_d / r_u, rationalised
+    factor = 2.0 / (1.0 + disc)  # r_d / r_u, rationalised: 1 at the centre, no division by r_u
     return centre + scale * q * factor[:, None]
 
 
@@ -231,31 +237,10 @@ def truncated_cost(left, right, F) -> tuple[float, np.ndarray]:
     return float(np.minimum(e * e, TRUNCATION ** 2).sum() / TRUNCATION ** 2), F
 
 
-def magsac(left, right):
-    F, _ = cv2.findFundamentalMat(left, right, cv2.USAC_MAGSAC, 1.0, 0.9999, 10000)
-    return None if F is None else F[:3]
-
-
-def mutual_sift_matches(left, right, ratio=0.7, features=4000):
-    """SIFT (``features`` points) + BFMatcher ratio ``ratio``, kept when mutual: (left,
-    right) (N, 2) float64 points."""
-    sift = cv2.SIFT_create(nfeatures=features, contrastThreshold=0.01)
-    kl, dl = sift.detectAndCompute(left, None)
-    kr, dr = sift.detectAndCompute(right, None)
-    if dl is None or dr is None or len(dl) < 2 or len(dr) < 2:
-        return np.zeros((0, 2)), np.zeros((0, 2))
-    bf = cv2.BFMatcher(cv2.NORM_L2)
-    back = {m[0].queryIdx: m[0].trainIdx for m in bf.knnMatch(dr, dl, k=1) if m}
-    good = [p[0] for p in bf.knnMatch(dl, dr, k=2) if len(p) == 2
-            and p[0].distance < ratio * p[1].distance and back.get(p[0].trainIdx) == p[0].queryIdx]
-    return (np.float64([kl[m.queryIdx].pt for m in good]).reshape(-1, 2),
-            np.float64([kr[m.trainIdx].pt for m in good]).reshape(-1, 2))
-
-
 def estimate_division(left, right) -> tuple[float, float]:
     """``(lam, gain)`` of the module doc's third table for two grey images."""
-    pl, pr = mutual_sift_matches(left, right)
-    F0 = magsac(pl, pr) if len(pl) >= 15 else None
+    pl, pr = sift_matches(left, right, features=4000, contrast=0.01, mutual=True)
+    F0 = magsac(pl, pr, 1.0)[0] if len(pl) >= 15 else None
     if F0 is None:
         return 0.0, 0.0
     base, F0 = truncated_cost(pl, pr, F0)
@@ -265,7 +250,7 @@ def estimate_division(left, right) -> tuple[float, float]:
         ul = division_undistort(pl, lam, centre, scale)
         ur = division_undistort(pr, lam, centre, scale)
         tries = [truncated_cost(ul, ur, F0)[0]]
-        F = magsac(ul, ur)
+        F = magsac(ul, ur, 1.0)[0]
         if F is not None:
             tries.append(truncated_cost(ul, ur, F)[0])
         costs.append(min(tries))

@@ -18,7 +18,7 @@ from .errors import BudgetExceededError, InvalidArgumentError, InvalidTypeError
 IMAGE_DTYPES = (np.uint8, np.uint16, np.int16, np.float32, np.float64)
 
 #: Largest finite float32: float64 values beyond it cannot be represented.
-_F32_MAX = float(np.finfo(np.float32).max)
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 #: Smallest positive float32 (subnormal); float64 values below about half of it become 0.
 _F32_TRUE_MIN = float(np.finfo(np.float32).smallest_subnormal)
 
@@ -53,10 +53,10 @@ def _to_float32(arr: np.ndarray, name: str, what: str) -> np.ndarray:
     if arr.dtype == np.float64 and arr.size:
         with np.errstate(invalid="ignore"):
             big = np.abs(arr).max()
-        if np.isfinite(big) and big > _F32_MAX:
+        if np.isfinite(big) and big > FLOAT32_MAX:
             raise InvalidArgumentError(
                 f"`{name}` holds {what} up to {big:.3g}, beyond the float32 range "
-                f"(+-{_F32_MAX:.3g}); rescale them first"
+                f"(+-{FLOAT32_MAX:.3g}); rescale them first"
             )
         if big > 0.0 and np.float32(big) == 0.0:  # every value would become 0 in float32
             raise InvalidArgumentError(

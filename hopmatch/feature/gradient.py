@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 
 from .._params import real
-from .._validate import as_gray_image
+from .._validate import FLOAT32_MAX, as_gray_image
 from ..errors import InvalidArgumentError
 
 
@@ -99,8 +99,6 @@ def border_width(alpha: float) -> int:
 #: 1st and 99th percentiles, that of an 8-bit image using most of its range (the shared
 #: scenes spread over 147 to 243, see docs/robustness.md, "Gain and dtype").
 INTENSITY_RANGE = 230.0
-#: Largest finite float32 (a scale factor beyond it is applied in float64).
-FLOAT32_MAX = float(np.finfo(np.float32).max)
 #: Percentiles whose distance measures the spread: robust to a few saturated pixels, and
 #: on the shared pairs closer between the two views of one scene than the standard
 #: deviation, which large bright or dark regions entering one view only move.
@@ -201,7 +199,7 @@ def normalised_intensity(gray: np.ndarray) -> np.ndarray:
     spread = intensity_spread(gray) if img.size else 0.0
     if spread > 0.0 and np.isfinite(spread):
         factor = INTENSITY_RANGE / spread
-        if factor <= FLOAT32_MAX:
+        if factor <= FLOAT32_MAX:  # beyond it, the factor is applied in float64
             img *= np.float32(factor)
         else:  # grey levels near float32's smallest (1e-40): the factor itself overflows
             img = (gray.astype(np.float64) * factor).astype(np.float32)
