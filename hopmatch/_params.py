@@ -25,9 +25,9 @@ from typing import Any
 
 import cv2
 
-from ._files import MAX_TEXT_BYTES, FileReadError, atomic_path, check_input_file
 from ._validate import as_int, as_real
-from .errors import HopmatchError, InvalidArgumentError, InvalidTypeError
+from .errors import FileReadError, HopmatchError, InvalidArgumentError, InvalidTypeError
+from .files import MAX_TEXT_BYTES, atomic_path, check_input_file
 
 _NONE_MARK = "__none__"
 
@@ -279,7 +279,7 @@ class Configurable:
         """Write every parameter to ``fs``: a path (``.yml``, ``.yaml``, ``.xml``, ``.json``)
         or an open ``cv2.FileStorage``. A path is written atomically (temporary file, then
         rename), so a failed write never leaves a half-written file; a folder that cannot
-        be written raises :class:`~hopmatch._files.FileWriteError` naming ``path``.
+        be written raises :class:`~hopmatch.errors.FileWriteError` naming ``path``.
 
         Every value round-trips exactly through :meth:`read`: integers outside int32 are
         stored as decimal strings (``seed: "9223372036854775807"``), floats with 17

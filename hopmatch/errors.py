@@ -10,6 +10,8 @@ maps it to its option).
 
 from __future__ import annotations
 
+import os
+
 __all__ = [
     "HopmatchError",
     "InvalidArgumentError",
@@ -17,6 +19,8 @@ __all__ = [
     "BudgetExceededError",
     "PairInfoError",
     "ConcurrentPairInfoError",
+    "FileReadError",
+    "FileWriteError",
     "HopmatchWarning",
     "ImageSizeWarning",
     "DisparityRangeWarning",
@@ -88,6 +92,31 @@ class ConcurrentPairInfoError(PairInfoError):
     thread set its own, or while this thread was matching: the matches would belong to
     another thread's keypoints, so none are returned. Give each thread its own matcher
     (``matcher.clone(emptyTrainData=True)``)."""
+
+
+class FileReadError(InvalidArgumentError):
+    """A file to read is missing, not a regular file, too large or refused by the system.
+
+    ``path`` and ``problem`` hold the two halves of the message ``"<path>: <problem>"``;
+    ``kind`` is one of the keys of :data:`hopmatch.files.READ_KINDS` (or None).
+    """
+
+    def __init__(self, path, problem: str, kind: str | None = None,
+                 argument: str | None = None):
+        self.path = os.fspath(path)
+        self.problem = problem
+        self.kind = kind
+        super().__init__(f"{self.path}: {problem}", argument=argument)
+
+
+class FileWriteError(InvalidArgumentError, OSError):
+    """A file cannot be written: its folder is missing or unwritable, its name too long,
+    or a folder stands where it should go. Also an ``OSError`` (``errno`` set when the
+    system gave one), so that code catching either keeps working; the message names the
+    destination, never the temporary file used on the way."""
+
+    def __str__(self) -> str:  # the message, not OSError's "[Errno n] ..." of errno
+        return str(self.args[0]) if self.args else ""
 
 
 # -- warnings ------------------------------------------------------------------------------

@@ -20,12 +20,12 @@ import warnings
 import cv2
 import numpy as np
 
-from ._files import MAX_FILE_BYTES, FileReadError, os_reason, read_input_bytes
 from ._validate import DEFAULT_MAX_PIXELS, as_int, describe
-from .errors import InvalidArgumentError, InvalidTypeError
+from .errors import FileReadError, InvalidArgumentError, InvalidTypeError
+from .files import MAX_FILE_BYTES, os_reason, read_input_bytes
 
-__all__ = ["DEFAULT_FLAGS", "HEADER_FORMATS", "KINDS", "ImageReadError", "header_size",
-           "os_reason", "read_image"]
+__all__ = ["DEFAULT_FLAGS", "DEFAULT_MAX_PIXELS", "HEADER_FORMATS", "KINDS", "ImageReadError",
+           "header_size", "os_reason", "read_image"]
 
 #: The ``cv2.imread`` flags of :func:`read_image` by default: every channel and bit depth
 #: as stored (grey stays ``(H, W)``, 16-bit stays uint16), alpha dropped.

@@ -45,3 +45,43 @@ def test_the_private_import_check_can_fail():
 def test_no_module_is_a_grab_bag(path):
     n = len(path.read_text(encoding="utf-8").splitlines())
     assert n <= MAX_LINES, f"{path.name} has {n} lines"
+
+
+PLUGINS = Path(__file__).resolve().parents[1] / "plugins"
+PLUGIN_MODULES = sorted(PLUGINS.rglob("*.py"))
+
+
+def _private_hopmatch_imports(source: str, label: str) -> list[str]:
+    """Imports of hopmatch's underscore modules (``hopmatch._files``) or names, from code
+    outside the package: what the plugins may not do."""
+    bad = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            names = [f"{node.module}.{alias.name}" for alias in node.names]
+        else:
+            continue
+        for name in names:
+            parts = name.split(".")
+            if parts[0] == "hopmatch" and any(p.startswith("_") and not p.startswith("__")
+                                              for p in parts[1:]):
+                bad.append(f"{label}:{node.lineno} imports {name}")
+    return bad
+
+
+def test_the_plugin_checks_see_the_plugins():
+    assert {p.parent.name for p in PLUGIN_MODULES} >= {"hopmatch_dask", "hopmatch_gapi"}
+
+
+@pytest.mark.parametrize("path", PLUGIN_MODULES, ids=lambda p: str(p.relative_to(PLUGINS)))
+def test_no_plugin_imports_hopmatchs_underscore_modules_or_names(path):
+    assert _private_hopmatch_imports(path.read_text(encoding="utf-8"), path.name) == []
+
+
+def test_the_plugin_import_check_can_fail():
+    source = ("import hopmatch._files\nfrom hopmatch._tables import x\n"
+              "from hopmatch.files import _hidden\nfrom hopmatch import _threads\n"
+              "from hopmatch.files import read_input_bytes\nimport hopmatch\n"
+              "from . import _local\nimport numpy._core\n")
+    assert len(_private_hopmatch_imports(source, "probe.py")) == 4

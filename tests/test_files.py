@@ -1,4 +1,4 @@
-"""hopmatch._files: all-or-nothing writes (also re-exported by hopmatch.viz), and the checks of
+"""hopmatch.files: all-or-nothing writes (also re-exported by hopmatch.viz), and the checks of
 the files hopmatch reads (issue 20: no pipe, device or socket opened, sizes bounded)."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 import pytest
 
-from hopmatch import _files, viz
+from hopmatch import errors, files, viz
 from hopmatch.errors import InvalidArgumentError
 
 IMG = np.zeros((40, 50), np.uint8)
@@ -33,8 +33,8 @@ def test_atomic_writers_leave_nothing_on_failure(tmp_path):
 
 
 def test_viz_reexports_the_one_home():
-    assert viz.write_text_atomic is _files.write_text_atomic
-    assert viz.write_image_atomic is _files.write_image_atomic
+    assert viz.write_text_atomic is files.write_text_atomic
+    assert viz.write_image_atomic is files.write_image_atomic
 
 
 def test_every_writer_creates_files_with_one_mode(tmp_path):
@@ -44,8 +44,8 @@ def test_every_writer_creates_files_with_one_mode(tmp_path):
 
     old = os.umask(0o022)
     try:
-        _files.write_text_atomic(tmp_path / "t.txt", "x")
-        _files.write_image_atomic(tmp_path / "i.png", IMG)
+        files.write_text_atomic(tmp_path / "t.txt", "x")
+        files.write_image_atomic(tmp_path / "i.png", IMG)
         hopmatch.HopfieldMatcher().write(str(tmp_path / "m.yml"))
         write_ply(tmp_path / "c.ply", np.zeros((3, 3), np.float32))
     finally:
@@ -56,7 +56,7 @@ def test_every_writer_creates_files_with_one_mode(tmp_path):
 
 def test_atomic_path_removes_the_temporary_file_on_interrupt(tmp_path):
     with pytest.raises(KeyboardInterrupt):
-        with _files.atomic_path(tmp_path / "out.yml") as tmp:
+        with files.atomic_path(tmp_path / "out.yml") as tmp:
             tmp.write_text("partial")
             raise KeyboardInterrupt
     assert list(tmp_path.iterdir()) == []
@@ -84,18 +84,18 @@ def _special_files(tmp_path):
 class TestInputFiles:
     def test_regular_file(self, tmp_path):
         (tmp_path / "a.bin").write_bytes(b"abc")
-        assert _files.check_input_file(tmp_path / "a.bin").st_size == 3
-        assert _files.read_input_bytes(tmp_path / "a.bin") == b"abc"
-        assert _files.read_input_text(tmp_path / "a.bin") == "abc"
+        assert files.check_input_file(tmp_path / "a.bin").st_size == 3
+        assert files.read_input_bytes(tmp_path / "a.bin") == b"abc"
+        assert files.read_input_text(tmp_path / "a.bin") == "abc"
 
     def test_special_files_are_refused_without_being_opened(self, tmp_path, monkeypatch):
         opened = []
         real_open = os.open
-        monkeypatch.setattr(_files.os, "open", lambda p, *a: opened.append(p) or real_open(p, *a))
+        monkeypatch.setattr(files.os, "open", lambda p, *a: opened.append(p) or real_open(p, *a))
         for path, words in _special_files(tmp_path):
             t0 = time.perf_counter()
-            with pytest.raises(_files.FileReadError) as exc:
-                _files.read_input_bytes(path, argument="fs")
+            with pytest.raises(errors.FileReadError) as exc:
+                files.read_input_bytes(path, argument="fs")
             assert time.perf_counter() - t0 < 1.0
             err = exc.value
             assert isinstance(err, InvalidArgumentError) and isinstance(err, ValueError)
@@ -116,32 +116,32 @@ class TestInputFiles:
             (tmp_path / ("n" * 300), "unreadable", "the name is too long"),
         ]
         for path, kind, words in cases:
-            with pytest.raises(_files.FileReadError) as exc:
-                _files.check_input_file(path)
+            with pytest.raises(errors.FileReadError) as exc:
+                files.check_input_file(path)
             assert (exc.value.kind, words in exc.value.problem) == (kind, True), exc.value
-            assert exc.value.kind in _files.READ_KINDS
+            assert exc.value.kind in files.READ_KINDS
 
     def test_size_is_bounded_before_and_while_reading(self, tmp_path):
         big = tmp_path / "sparse.bin"
         with open(big, "wb") as fh:
             fh.truncate(40 * 2**30)  # 40 GiB, sparse: nothing is read
         t0 = time.perf_counter()
-        with pytest.raises(_files.FileReadError, match=r"40\.0 GiB .* more than the 1\.0 GiB"):
-            _files.read_input_bytes(big)
+        with pytest.raises(errors.FileReadError, match=r"40\.0 GiB .* more than the 1\.0 GiB"):
+            files.read_input_bytes(big)
         assert time.perf_counter() - t0 < 1.0
         (tmp_path / "small").write_bytes(b"x" * 100)
-        with pytest.raises(_files.FileReadError) as exc:
-            _files.read_input_bytes(tmp_path / "small", max_bytes=99)
+        with pytest.raises(errors.FileReadError) as exc:
+            files.read_input_bytes(tmp_path / "small", max_bytes=99)
         assert exc.value.kind == "too_large"
-        assert _files.read_input_bytes(tmp_path / "small", max_bytes=100) == b"x" * 100
+        assert files.read_input_bytes(tmp_path / "small", max_bytes=100) == b"x" * 100
 
     def test_not_a_path(self):
         with pytest.raises(TypeError, match="`fs` must be a str or os.PathLike"):
-            _files.check_input_file(3, argument="fs")
+            files.check_input_file(3, argument="fs")
 
     def test_os_reason(self):
-        assert "loop" in _files.os_reason(OSError(errno.ELOOP, "x"))
-        assert "too long" in _files.os_reason(OSError(errno.ENAMETOOLONG, "x"))
+        assert "loop" in files.os_reason(OSError(errno.ELOOP, "x"))
+        assert "too long" in files.os_reason(OSError(errno.ENAMETOOLONG, "x"))
 
 
 class TestWriteErrors:
@@ -150,41 +150,41 @@ class TestWriteErrors:
 
     def _check(self, exc, path, words):
         err = exc.value
-        assert isinstance(err, _files.FileWriteError)
+        assert isinstance(err, errors.FileWriteError)
         assert isinstance(err, InvalidArgumentError) and isinstance(err, OSError)
         assert str(path) in str(err) and words in str(err)
         assert ".tmp" not in str(err)
 
     def test_onto_a_folder(self, tmp_path):
-        for write in (lambda p: _files.write_text_atomic(p, "x"),
-                      lambda p: _files.write_image_atomic(p, IMG),
+        for write in (lambda p: files.write_text_atomic(p, "x"),
+                      lambda p: files.write_image_atomic(p, IMG),
                       lambda p: viz.write_text_atomic(p, "x")):
             target = tmp_path / "dir.png"
             target.mkdir(exist_ok=True)
-            with pytest.raises(_files.FileWriteError) as exc:
+            with pytest.raises(errors.FileWriteError) as exc:
                 write(target)
             self._check(exc, target, "a folder of that name")
         assert sorted(p.name for p in tmp_path.iterdir()) == ["dir.png"]
 
     def test_long_names(self, tmp_path):
-        with pytest.raises(_files.FileWriteError) as exc:
-            _files.write_text_atomic(tmp_path / ("b" * 300), "x")
+        with pytest.raises(errors.FileWriteError) as exc:
+            files.write_text_atomic(tmp_path / ("b" * 300), "x")
         self._check(exc, tmp_path / ("b" * 300), "300 bytes long, more than the 255")
         # a name of 250 bytes is valid: its temporary name is shortened to fit
-        ok = _files.write_text_atomic(tmp_path / ("c" * 250), "x")
+        ok = files.write_text_atomic(tmp_path / ("c" * 250), "x")
         assert ok.read_text() == "x" and len(list(tmp_path.iterdir())) == 1
 
     def test_missing_folder(self, tmp_path):
-        with pytest.raises(_files.FileWriteError, match="does not exist"):
-            _files.write_text_atomic(tmp_path / "no" / "a.txt", "x")
+        with pytest.raises(errors.FileWriteError, match="does not exist"):
+            files.write_text_atomic(tmp_path / "no" / "a.txt", "x")
 
     @pytest.mark.skipif(not os.path.isdir("/proc/self"),
                         reason="needs Linux /proc (a folder nobody can write in, even root)")
     def test_unwritable_folder(self):
-        with pytest.raises(_files.FileWriteError) as exc:
-            _files.write_text_atomic("/proc/self/hopmatch.txt", "x")
+        with pytest.raises(errors.FileWriteError) as exc:
+            files.write_text_atomic("/proc/self/hopmatch.txt", "x")
         self._check(exc, "/proc/self/hopmatch.txt", "cannot write")
-        with pytest.raises(_files.FileWriteError) as exc:
-            with _files.atomic_path("/proc/self/p.yml", "fs"):
+        with pytest.raises(errors.FileWriteError) as exc:
+            with files.atomic_path("/proc/self/p.yml", "fs"):
                 pass
         assert exc.value.argument == "fs"

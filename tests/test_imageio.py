@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 import pytest
 
-import hopmatch._files
+import hopmatch.files
 from hopmatch.errors import InvalidArgumentError, InvalidTypeError
 from hopmatch.imageio import DEFAULT_FLAGS, KINDS, ImageReadError, os_reason, read_image
 
@@ -117,7 +117,7 @@ class TestBadFiles:
                 raise PermissionError(errno.EACCES, "Permission denied", str(path))
             return real_open(path, flags, *args)
 
-        monkeypatch.setattr(hopmatch._files.os, "open", refuse)
+        monkeypatch.setattr(hopmatch.files.os, "open", refuse)
         with pytest.raises(ImageReadError, match="cannot read the file: permission denied") as exc:
             read_image(paths["grey"])
         assert exc.value.kind == "unreadable"

@@ -1,4 +1,4 @@
-"""The matches table writer (hopmatch._tables), shared by hopmatch match and hopmatch batch."""
+"""The matches table writer (hopmatch.tables), shared by hopmatch match and hopmatch batch."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from hopmatch._tables import MATCH_COLUMNS, float32_strings, format_table, matches_table
+from hopmatch.tables import MATCH_COLUMNS, float32_strings, format_table, matches_table
 
 
 def test_float32_strings_read_back_exactly():

@@ -13,12 +13,12 @@ import numpy as np
 import hopmatch
 
 from .. import viz
-from .._tables import format_table, matches_table
 from ..evaluate import correct_matches, score_matches
 from ..feature.detector import DericheMoravecDetector
 from ..matching.matcher import HopfieldMatcher
 from ..matching.stereo_match import match_stereo, stereo_pipeline
 from ..matching.unrectified import UNRECTIFIED_VERTICAL
+from ..tables import format_table, matches_table
 from .group import cli
 from .options import given_parameters, param_labels, parameter_options
 from .outputs import Outputs, image_info, ms, read_image, run_json

@@ -22,8 +22,8 @@ import numpy as np
 import hopmatch
 
 from .. import imageio
-from .._files import NAME_MAX, encode_image
 from .._validate import DEFAULT_MAX_PIXELS
+from ..files import NAME_MAX, encode_image
 from .reporting import CLIError
 
 __all__ = ["Outputs", "Terminated", "image_info", "ms", "read_image", "run_json",

@@ -9,9 +9,9 @@ from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .._files import write_text_atomic
 from ..datasets import StereoScene
 from ..evaluate import correct_matches
+from ..files import write_text_atomic
 from .runner import THRESHOLDS
 
 __all__ = ["COLUMNS", "MARKDOWN_COLUMNS", "cell", "correct_flags", "draw_row",

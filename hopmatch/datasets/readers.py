@@ -29,16 +29,15 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .._files import (
+from .._validate import as_real, describe
+from ..errors import FileReadError, InvalidArgumentError, InvalidTypeError
+from ..files import (
     MAX_FILE_BYTES,
     MAX_TEXT_BYTES,
-    FileReadError,
     check_input_file,
     read_input_bytes,
     read_input_text,
 )
-from .._validate import as_real, describe
-from ..errors import InvalidArgumentError, InvalidTypeError
 from ..imageio import ImageReadError, read_image
 
 __all__ = [
@@ -75,7 +74,7 @@ def as_path(path, name: str = "path") -> Path:
 def existing_file(path, what: str, max_bytes: int | None = None) -> Path:
     """``path`` as a :class:`pathlib.Path` naming an existing regular file (of at most
     ``max_bytes`` bytes when given), checked without opening it
-    (:func:`hopmatch._files.check_input_file`).
+    (:func:`hopmatch.files.check_input_file`).
 
     Raises :class:`InvalidArgumentError` ``"<what> file '<path>' does not exist"``,
     ``"<what> path '<path>' is not a file"`` (a folder), ``"<what> path '<path>' is a named

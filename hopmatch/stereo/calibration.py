@@ -15,9 +15,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .._files import MAX_TEXT_BYTES, FileReadError, atomic_path, check_input_file
 from .._validate import as_array, as_image_size, as_matrix, as_points, cv2_call, describe
-from ..errors import InvalidArgumentError, InvalidTypeError
+from ..errors import FileReadError, InvalidArgumentError, InvalidTypeError
+from ..files import MAX_TEXT_BYTES, atomic_path, check_input_file
 from .checks import (
     as_alpha,
     as_camera_matrix,

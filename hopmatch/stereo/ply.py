@@ -6,9 +6,9 @@ import os
 
 import numpy as np
 
-from .._files import atomic_path
 from .._validate import describe
 from ..errors import InvalidArgumentError, InvalidTypeError
+from ..files import atomic_path
 from .checks import as_path, as_real_array
 
 __all__ = ["write_ply"]

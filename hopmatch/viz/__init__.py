@@ -20,7 +20,7 @@ may be grey or BGR(A), 8-bit, 16-bit or float (other depths are stretched to 0..
 display).
 
 :func:`write_image_atomic` and :func:`write_text_atomic` (their home is
-``hopmatch._files``, with every other writer of the package) write a file all or nothing:
+``hopmatch.files``, with every other writer of the package) write a file all or nothing:
 the data goes to a temporary name in the destination folder and is renamed
 (``os.replace``) when complete, so a failed write never leaves a partial file.
 
@@ -38,7 +38,7 @@ Examples
 
 from __future__ import annotations
 
-from .._files import (  # noqa: F401 (kept importable from here: hopmatch.viz.write_temp...)
+from ..files import (  # noqa: F401 (kept importable from here: hopmatch.viz.write_temp...)
     encode_image,
     write_bytes_atomic,
     write_image_atomic,

@@ -7,7 +7,7 @@ global state and backend are never touched.
 
 Each plot comes in two forms: ``render_*`` returns the encoded file as bytes (``fmt``:
 ``"png"``, ``"pdf"``, ``"svg"``...), and ``plot_*`` writes it atomically
-(:func:`hopmatch._files.write_bytes_atomic`) to a path whose suffix picks the format.
+(:func:`hopmatch.files.write_bytes_atomic`) to a path whose suffix picks the format.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import write_bytes_atomic
 from .._validate import describe
 from ..errors import InvalidArgumentError, InvalidTypeError
+from ..files import write_bytes_atomic
 
 __all__ = [
     "ERROR_BINS",

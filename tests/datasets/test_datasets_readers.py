@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from dataset_files import KITTI_CALIB, MIDDLEBURY_CALIB, write_pfm
 
-import hopmatch._files
+import hopmatch.files
 from hopmatch.datasets import (
     read_kitti_calib,
     read_kitti_disparity,
@@ -382,7 +382,7 @@ class TestSceneFiles:
                 raise PermissionError(errno.EACCES, "Permission denied", str(name))
             return real_open(name, flags, *args)
 
-        monkeypatch.setattr(hopmatch._files.os, "open", refuse)
+        monkeypatch.setattr(hopmatch.files.os, "open", refuse)
         with pytest.raises(InvalidArgumentError, match=r"Middlebury disparity file .*d\.png': "
                                                        r"cannot read the file: permission denied"):
             read_middlebury_disparity(path, scale=8)

@@ -287,11 +287,11 @@ def test_a_worker_matches_an_unrectified_pair():
     np.testing.assert_array_equal(plain.matched_left, res.matched_left)
 
     """The plugin writes <name>.csv with the library's writer, as hopmatch match does."""
-    from hopmatch import _tables
+    from hopmatch import tables
     from hopmatch_dask import results
 
-    assert results.matches_table is _tables.matches_table
-    assert results.COLUMNS == _tables.MATCH_COLUMNS == tuple(
+    assert results.matches_table is tables.matches_table
+    assert results.COLUMNS == tables.MATCH_COLUMNS == tuple(
         "left_x left_y right_x right_y disparity distance".split())
 
 

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from hopmatch._files import write_text_atomic
 from hopmatch.errors import InvalidArgumentError, InvalidTypeError
+from hopmatch.files import write_text_atomic
 from hopmatch.matching.stereo_match import stereo_pipeline
 
 from .pairs import Pair, as_pairs

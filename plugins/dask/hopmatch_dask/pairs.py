@@ -9,8 +9,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hopmatch._files import MAX_FILE_BYTES, FileReadError, read_input_bytes
-from hopmatch.errors import InvalidArgumentError, InvalidTypeError
+from hopmatch.errors import FileReadError, InvalidArgumentError, InvalidTypeError
+from hopmatch.files import MAX_FILE_BYTES, read_input_bytes
 
 __all__ = ["Pair", "PairsFileError", "as_pairs", "read_pairs"]
 

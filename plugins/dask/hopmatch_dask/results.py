@@ -1,5 +1,5 @@
 """Result files: the matches table (written by ``hopmatch match``'s writer,
-:func:`hopmatch._tables.matches_table`) and the summary."""
+:func:`hopmatch.tables.matches_table`) and the summary."""
 
 from __future__ import annotations
 
@@ -7,8 +7,9 @@ import csv
 import io
 import math
 
-from hopmatch._files import MAX_FILE_BYTES, FileReadError, read_input_bytes, write_text_atomic
-from hopmatch._tables import MATCH_COLUMNS, matches_table
+from hopmatch.errors import FileReadError
+from hopmatch.files import MAX_FILE_BYTES, read_input_bytes, write_text_atomic
+from hopmatch.tables import MATCH_COLUMNS, matches_table
 
 __all__ = ["COLUMNS", "SUMMARY_COLUMNS", "complete_rows", "finished_counts", "matches_table",
            "summary_table", "write_text_atomic"]

@@ -15,9 +15,8 @@ from pathlib import Path
 import numpy as np
 
 import hopmatch
-from hopmatch._validate import DEFAULT_MAX_PIXELS
 from hopmatch.errors import HopmatchError, InvalidArgumentError
-from hopmatch.imageio import ImageReadError, read_image
+from hopmatch.imageio import DEFAULT_MAX_PIXELS, ImageReadError, read_image
 
 from .results import matches_table
 

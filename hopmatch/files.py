@@ -5,14 +5,16 @@ through this module: it is written to a hidden temporary file in the destination
 created as ``open(path, "w")`` would create it (mode 0o666 minus the umask), and moved onto
 its name with ``os.replace`` only once complete. On any exception, ``KeyboardInterrupt``
 included, the temporary file is removed and the destination is left as it was. A failure
-raises :class:`FileWriteError` (an ``InvalidArgumentError`` and an ``OSError``) naming the
-destination, never the temporary file.
+raises :class:`~hopmatch.errors.FileWriteError` (an ``InvalidArgumentError`` and an
+``OSError``) naming the destination, never the temporary file.
 
 Every file hopmatch reads (images, FileStorage parameters, calibrations, PFM, tables) is
 checked first by :func:`check_input_file`, before it is opened: it must be a regular file
 (not a folder, named pipe, device or socket) of at most ``max_bytes`` bytes, else
-:class:`FileReadError` says which of these it is. :func:`read_input_bytes` then reads it
-without ever blocking and never past ``max_bytes``.
+:class:`~hopmatch.errors.FileReadError` says which of these it is.
+:func:`read_input_bytes` then reads it without ever blocking and never past ``max_bytes``.
+
+Public so that the plugins (``plugins/``) read and write as the package does.
 """
 
 from __future__ import annotations
@@ -28,11 +30,9 @@ import cv2
 import numpy as np
 
 from ._validate import describe
-from .errors import InvalidArgumentError, InvalidTypeError
+from .errors import FileReadError, FileWriteError, InvalidArgumentError, InvalidTypeError
 
 __all__ = [
-    "FileReadError",
-    "FileWriteError",
     "MAX_FILE_BYTES",
     "MAX_TEXT_BYTES",
     "READ_KINDS",
@@ -56,7 +56,7 @@ MAX_FILE_BYTES = 2**30
 #: Largest text file of parameters or calibration read (FileStorage, calib.txt): 64 MiB.
 MAX_TEXT_BYTES = 2**26
 
-#: What :attr:`FileReadError.kind` can be, and what each means.
+#: What :attr:`hopmatch.errors.FileReadError.kind` can be, and what each means.
 READ_KINDS = {
     "missing": "no file or folder of that name (or a broken symbolic link)",
     "folder": "the path names a folder",
@@ -91,31 +91,6 @@ def os_reason(exc: OSError) -> str:
                             "of the path, or 4096 in all)",
         errno.EISDIR: "is a folder",
     }.get(exc.errno, exc.strerror or str(exc))
-
-
-class FileReadError(InvalidArgumentError):
-    """A file to read is missing, not a regular file, too large or refused by the system.
-
-    ``path`` and ``problem`` hold the two halves of the message ``"<path>: <problem>"``;
-    ``kind`` is one of the keys of :data:`READ_KINDS` (or None).
-    """
-
-    def __init__(self, path, problem: str, kind: str | None = None,
-                 argument: str | None = None):
-        self.path = os.fspath(path)
-        self.problem = problem
-        self.kind = kind
-        super().__init__(f"{self.path}: {problem}", argument=argument)
-
-
-class FileWriteError(InvalidArgumentError, OSError):
-    """A file cannot be written: its folder is missing or unwritable, its name too long,
-    or a folder stands where it should go. Also an ``OSError`` (``errno`` set when the
-    system gave one), so that code catching either keeps working; the message names the
-    destination, never the temporary file used on the way."""
-
-    def __str__(self) -> str:  # the message, not OSError's "[Errno n] ..." of errno
-        return str(self.args[0]) if self.args else ""
 
 
 def _special_kind(mode: int) -> str:
