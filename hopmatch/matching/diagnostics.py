@@ -375,11 +375,31 @@ def contrast_ratio(qd, td, look_alikes=None) -> float | None:
     return right / left
 
 
-def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None) -> str:
+def lines_missing_image(fundamental, q_pts, train_size) -> int:
+    """How many of the left points ``q_pts`` have an epipolar line ``F x_l`` that misses
+    the right image (``train_size`` = (width, height)): the line ``a x + b y + c = 0`` is on
+    one side of all four corners of ``[0, width - 1] x [0, height - 1]``, or ``a = b = 0``
+    (a matrix that is not this pair's fundamental matrix: a homography, the identity...)."""
+    p = np.asarray(q_pts, dtype=np.float64).reshape(-1, 2)
+    if not len(p):
+        return 0
+    lines = np.c_[p, np.ones(len(p))] @ np.asarray(fundamental, dtype=np.float64).T
+    w, h = (float(v) - 1.0 for v in train_size)
+    corners = np.array([[0.0, 0.0, 1.0], [w, 0.0, 1.0], [0.0, h, 1.0], [w, h, 1.0]])
+    side = lines @ corners.T
+    degenerate = (lines[:, 0] == 0) & (lines[:, 1] == 0)
+    return int(np.sum(degenerate | (side > 0).all(axis=1) | (side < 0).all(axis=1)))
+
+
+def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None, *, fundamental=None,
+                      train_size=None) -> str:
     """The likely reason why the network ``result`` kept almost no match, in words. With
     the keypoints ``q_pts``, ``t_pts`` the gain is measured on clear look-alikes within
     the disparity range and ``max(FEW_MATCHES_BAND, 4 max_vertical)`` rows
-    (:func:`contrast_ratio`)."""
+    (:func:`contrast_ratio`). With ``fundamental`` (the matrix searched along) and
+    ``train_size`` (the right image's (width, height)), a search that found no candidate
+    says how many left keypoints' epipolar lines miss the right image when half of them or
+    more do (:func:`lines_missing_image`)."""
     look = None
     if q_pts is not None and t_pts is not None and config.max_disparity is not None:
         look = clear_look_alikes(q_pts, t_pts, qd, td, config.min_disparity or 0.0,
@@ -393,6 +413,21 @@ def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None) -> str:
                 "(uint8 against uint16, or floats in [0, 1]), and the similarity gate "
                 "(similarity_gate) rejects their true matches; give both images the same "
                 "scale first (e.g. convert both to uint8 with cv2.normalize)")
+    if not len(result.neuron_left) and fundamental is not None:
+        band = (f"no candidate pair lies in the epipolar band (within {config.max_vertical:g} "
+                f"px of the lines of `fundamental_matrix`, disparity in "
+                f"[{config.min_disparity:g}, {config.max_disparity:g}]) with similar enough "
+                "windows")
+        missing = (lines_missing_image(fundamental, q_pts, train_size)
+                   if q_pts is not None and train_size is not None else 0)
+        if missing >= 0.5 * len(q_pts):
+            return (f"{band}, and the epipolar lines of {missing} of the {len(q_pts)} left "
+                    "keypoints miss the right image: check that `fundamental_matrix` is this "
+                    "pair's, in pixels, with x_right^T F x_left = 0 (as "
+                    "cv2.findFundamentalMat(points_left, points_right) returns it; its "
+                    "transpose maps the other way), not a homography or a camera matrix")
+        return (f"{band}: check the disparity range (min_disparity/max_disparity) and that "
+                "`fundamental_matrix` is this pair's")
     if not len(result.neuron_left):
         return (f"no candidate pair lies in the search window (disparity in "
                 f"[{config.min_disparity:g}, {config.max_disparity:g}], |dy| <= "
@@ -403,18 +438,21 @@ def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None) -> str:
         return (f"no candidate has a neighbour within neighbour_width x neighbour_height "
                 f"({config.neighbour_width:g} x {config.neighbour_height:g} px), so nothing "
                 "supports any match; widen the neighbourhood")
+    given = ("" if fundamental is None else
+             "; check that `fundamental_matrix` is this pair's: candidates along the lines of "
+             "another matrix do not support each other")
     if not result.state.any():
         return ("the network kept no neuron active (input_bias, slope, theta or "
-                "uniqueness_weight leave no match enough support); try the defaults")
+                "uniqueness_weight leave no match enough support); try the defaults" + given)
     return ("the candidates support each other too little: the images may not show the same "
             "scene, the disparity range may miss the true disparities "
             f"([{config.min_disparity:g}, {config.max_disparity:g}]), or the pair may be "
-            "misaligned")
+            "misaligned" + given)
 
 
 def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
                         range_found: bool = True, kept: int | None = None,
-                        exposure: str = "") -> bool:
+                        exposure: str = "", fundamental=None, train_size=None) -> bool:
     """Warn (:class:`~hopmatch.errors.FewMatchesWarning`) when a pair of at least
     :data:`FEW_MATCHES_MIN_POINTS` keypoints a side kept fewer than
     ``max(FEW_MATCHES_FLOOR, FEW_MATCHES_FRACTION * keypoints)`` matches, saying the
@@ -422,7 +460,8 @@ def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
     ``range_found`` is False, that the disparity range could not be found and the whole
     fallback range was searched. ``kept``: the matches kept in the end, when passes after
     the network added some (None: the network's). ``exposure``: :func:`exposure_note`'s
-    words, given as the cause when not empty. Returns whether it warned."""
+    words, given as the cause when not empty. ``fundamental``, ``train_size``: as for
+    :func:`few_matches_cause`. Returns whether it warned."""
     n = min(len(q_pts), len(t_pts))
     by_network = len(result.query_idx)
     kept = by_network if kept is None else kept
@@ -432,7 +471,8 @@ def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
         f" (max_disparity=None: the coarse pass found no range, so the whole range "
         f"[{config.min_disparity:g}, {config.max_disparity:g}] was searched)")
     network = "" if kept == by_network else f" ({by_network} from the network)"
-    cause = exposure or few_matches_cause(result, qd, td, config, q_pts, t_pts)
+    cause = exposure or few_matches_cause(result, qd, td, config, q_pts, t_pts,
+                                          fundamental=fundamental, train_size=train_size)
     warn(f"only {kept} matches{network} for {len(q_pts)} left and {len(t_pts)} right "
          f"keypoints{searched}: {cause}", FewMatchesWarning)
     return True

@@ -310,7 +310,8 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     diagnosis = pair_diagnosis(len(result.query_idx), q_pts, t_pts, qd, td, fundamental,
                                config, raise_unrectified, rows_share)
     check = functools.partial(warn_if_few_matches, result, q_pts, t_pts, qd, td, config,
-                              range_found=found.source != "fallback")
+                              range_found=found.source != "fallback", fundamental=fundamental,
+                              train_size=pair.train_size)
     def warn_once(kept: int | None = None, exposure: str = "") -> None:
         if not warn_about_pair(diagnosis, check, q_pts, t_pts, kept=kept,
                                exposure=exposure):

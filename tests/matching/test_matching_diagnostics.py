@@ -366,6 +366,39 @@ def test_few_matches_other_causes():
     assert hits == []
 
 
+def test_few_matches_with_a_matrix_that_is_not_the_pairs_f():
+    """A fundamental_matrix whose epipolar lines miss the right image (the identity, a
+    homography: not a fundamental matrix at all) is named as the cause, with how many lines
+    miss; the pair's own F matches, and a matrix whose lines cross the image but along the
+    wrong rows gets the network's cause with a word about the matrix (before 2026-12-06:
+    "check that the pair is rectified" and "try the defaults")."""
+    from hopmatch.matching.diagnostics import lines_missing_image
+
+    left = _noise()
+    right = np.roll(left, -6, axis=1)
+    rows = np.array([[0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])  # x_r^T F x_l = y_l - y_r
+    homography = np.array([[1, 0.01, 3], [0, 1, 2], [1e-5, 0, 1.0]])
+    for matrix in (np.eye(3), homography):
+        res, hits = _few(lambda m=matrix: hopmatch.match_stereo(left, right, max_disparity=16,
+                                                                fundamental_matrix=m))
+        assert len(res.query_idx) == 0
+        assert len(hits) == 1 and "epipolar lines of" in hits[0] \
+            and "miss the right image" in hits[0] and "`fundamental_matrix`" in hits[0], hits
+    res, hits = _few(lambda: hopmatch.match_stereo(left, right, max_disparity=16,
+                                                   fundamental_matrix=rows))
+    assert len(res.query_idx) > 100 and hits == []
+    # rows 60 px apart: the lines of the top 30 % miss the image, the others find no partner
+    shifted = np.array([[0, 0, 0], [0, 0, -1.0], [0, 1.0, -60.0]])
+    res, hits = _few(lambda: hopmatch.match_stereo(left, right, max_disparity=16,
+                                                   fundamental_matrix=shifted))
+    assert hits and "miss the right image" not in hits[0] \
+        and "`fundamental_matrix` is this pair's" in hits[0], hits
+    # the count itself: lines y = y_l (crossing a 100 x 50 image) for y_l < 50, else not
+    pts = np.array([[10, 5], [10, 49], [10, 50], [10, 400]], np.float32)
+    assert lines_missing_image(rows, pts, (100, 50)) == 2
+    assert lines_missing_image(np.zeros((3, 3)), pts, (100, 50)) == 4  # a = b = 0
+
+
 def _features(left, right):
     det = hopmatch.DericheMoravecDetector()
     pl, _, dl, _ = det.detect_and_describe(left)
