@@ -219,6 +219,8 @@ def select_points(v, nms_size, threshold, relative_threshold, margin, max_featur
                    mask):
     """:func:`moravec_points` (eq. 2) on validated arguments: ``v`` a C-contiguous float32
     response, ``mask`` None or an (H, W) bool array."""
+    if v.size == 0:  # an empty image (moravec_response gives one) has no point
+        return np.zeros((0, 2), np.float32), np.zeros(0, np.float32)
     # a radius past the image's sides sees the whole image already: the same maxima, and a
     # dilation kernel of at most the image's size (nms_size=2**31 asked for 4 EiB)
     radius = min(nms_size // 2, max(v.shape + (1,)))

@@ -14,15 +14,24 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
-from .._validate import as_gray_image, as_match_indices, as_points
+from .._validate import (
+    as_array,
+    as_gray_image,
+    as_match_indices,
+    as_points,
+    check_coordinate_range,
+    keypoint_positions,
+)
 from ..errors import InvalidArgumentError, InvalidTypeError
 
 __all__ = [
     "GREEN",
     "GREY",
     "RED",
+    "as_disparities",
     "as_display_image",
     "as_index_pairs",
+    "drawable_points",
     "disparity_colours",
     "draw_disparity",
     "draw_keypoints",
@@ -66,6 +75,27 @@ def as_display_image(image, name: str) -> np.ndarray:
     return cv2.cvtColor(gray, cv2.COLOR_GRAY2BGR)
 
 
+def drawable_points(points, name: str) -> np.ndarray:
+    """:func:`~hopmatch._validate.as_points`, refusing coordinates beyond
+    +-:data:`~hopmatch._validate.MAX_COORDINATE` px as the matcher does (OpenCV draws at
+    int32 positions: a point at 1e12 px was a ``cv2.error``); keypoints are checked alike."""
+    pts = as_points(points, name)
+    check_coordinate_range(pts, name)
+    return pts
+
+
+def as_disparities(values, name: str, n: int, per: str = "point", *,
+                   finite: bool = True) -> np.ndarray:
+    """``values`` as ``(n,)`` float64 disparities, one per ``per`` (finite unless
+    ``finite=False``); errors name ``name`` (strings, objects and ragged lists were NumPy's
+    bare ValueError or TypeError)."""
+    d = as_array(values, name, "an array of disparities", finite=finite).reshape(-1)
+    if d.shape[0] != n:
+        raise InvalidArgumentError(f"`{name}` must have one value per {per} ({n}), got "
+                                   f"{d.shape[0]}")
+    return d
+
+
 def _is_sequence_of(values, kind) -> bool:
     return isinstance(values, Sequence) and not isinstance(values, (str, bytes)) \
         and all(isinstance(v, kind) for v in values)
@@ -98,8 +128,9 @@ def as_index_pairs(matches, n_left: int, n_right: int) -> np.ndarray:
 def _as_keypoints(keypoints, name: str) -> list:
     """A list of ``cv2.KeyPoint`` from keypoints or an ``(N, 2)`` (x, y) array (size 5)."""
     if _is_sequence_of(keypoints, cv2.KeyPoint):
+        check_coordinate_range(keypoint_positions(keypoints, name), name)
         return list(keypoints)
-    pts = as_points(keypoints, name)
+    pts = drawable_points(keypoints, name)
     return [cv2.KeyPoint(float(x), float(y), 5.0) for x, y in pts.tolist()]
 
 
@@ -239,14 +270,8 @@ def draw_disparity(left, points, disparities, max_disparity=None, *, radius: int
     """
     gray = as_display_image(left, "left")
     gray = cv2.cvtColor(cv2.cvtColor(gray, cv2.COLOR_BGR2GRAY), cv2.COLOR_GRAY2BGR)
-    pts = as_points(points, "points")
-    disp = np.asarray(disparities, dtype=np.float64).reshape(-1)
-    if disp.shape[0] != pts.shape[0]:
-        raise InvalidArgumentError(
-            f"`disparities` must have one value per point ({pts.shape[0]}), got {disp.shape[0]}"
-        )
-    if not np.isfinite(disp).all():
-        raise InvalidArgumentError("`disparities` contains NaN or infinite values")
+    pts = drawable_points(points, "points")
+    disp = as_disparities(disparities, "disparities", pts.shape[0])
     if len(disp) == 0:
         return gray
     lo = float(min_disparity)

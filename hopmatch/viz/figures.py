@@ -11,10 +11,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .._validate import as_gray_image, as_points, describe
+from .._validate import as_gray_image, describe
 from ..errors import InvalidArgumentError, InvalidTypeError
 from ..feature import DericheMoravecDetector, deriche_gradient
-from .draw import as_display_image, as_index_pairs
+from .draw import as_display_image, as_index_pairs, drawable_points
 from .overview import spread_subset
 
 __all__ = [
@@ -143,7 +143,7 @@ def draw_keypoints_on_gradient(image, keypoints, detector=None, *, color=FIGURE_
     [0, 0, 255]
     """
     picture = _gradient_display(image, detector)
-    pts = as_points(keypoints, "keypoints")
+    pts = drawable_points(keypoints, "keypoints")
     colour = tuple(int(c) for c in color)
     for x, y in np.rint(pts).astype(np.int64).tolist():
         cv2.drawMarker(picture, (x, y), colour, cv2.MARKER_CROSS, int(marker_size), 1,
@@ -235,8 +235,8 @@ def draw_labelled_matches(left, right, kps_l, kps_r, matches, *, draw_lines: boo
     ([0, 0, 255], [0, 0, 255])
     """
     img_l, img_r = as_display_image(left, "left"), as_display_image(right, "right")
-    kl = as_points(kps_l, "kps_l")
-    kr = as_points(kps_r, "kps_r")
+    kl = drawable_points(kps_l, "kps_l")
+    kr = drawable_points(kps_r, "kps_r")
     pairs = as_index_pairs(matches, len(kl), len(kr))
     gap = int(gap)
     if gap < 0:

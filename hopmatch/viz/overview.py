@@ -25,7 +25,13 @@ import numpy as np
 
 from .._validate import as_points
 from ..errors import InvalidArgumentError
-from .draw import as_display_image, as_index_pairs, disparity_colours
+from .draw import (
+    as_disparities,
+    as_display_image,
+    as_index_pairs,
+    disparity_colours,
+    drawable_points,
+)
 
 __all__ = [
     "WRONG",
@@ -321,14 +327,11 @@ def draw_match_overview(left, right, kps_l, kps_r, matches, disparities=None, *,
     (160, 3)
     """
     img_l, img_r = _grey(left, "left"), _grey(right, "right")
-    kl, kr = as_points(kps_l, "kps_l"), as_points(kps_r, "kps_r")
+    kl, kr = drawable_points(kps_l, "kps_l"), drawable_points(kps_r, "kps_r")
     pairs = as_index_pairs(matches, len(kl), len(kr))
     ml, mr = kl[pairs[:, 0]], kr[pairs[:, 1]]
     d = (ml[:, 0] - mr[:, 0]).astype(np.float64) if disparities is None else \
-        np.asarray(disparities, np.float64).reshape(-1)
-    if d.shape != (len(pairs),):
-        raise InvalidArgumentError(
-            f"`disparities` must have one value per match ({len(pairs)}), got {d.shape[0]}")
+        as_disparities(disparities, "disparities", len(pairs), "match", finite=False)
     lo, hi = disparity_scale(d, min_disparity, max_disparity)
     colours = disparity_colours(d, lo, hi)
     hl, wl = img_l.shape[:2]
@@ -404,13 +407,8 @@ def draw_keypoint_disparities(left, points, disparities, *, min_disparity=None,
     (60, 160, 3)
     """
     img = _grey(left, "left")
-    pts = as_points(points, "points")
-    d = np.asarray(disparities, np.float64).reshape(-1)
-    if d.shape[0] != pts.shape[0]:
-        raise InvalidArgumentError(
-            f"`disparities` must have one value per point ({pts.shape[0]}), got {d.shape[0]}")
-    if not np.isfinite(d).all():
-        raise InvalidArgumentError("`disparities` contains NaN or infinite values")
+    pts = drawable_points(points, "points")
+    d = as_disparities(disparities, "disparities", pts.shape[0])
     lo, hi = disparity_scale(d, min_disparity, max_disparity)
     order = np.argsort(d, kind="stable")  # the nearest (largest disparity) on top
     _dots(img, pts[order], disparity_colours(d[order], lo, hi), int(radius))

@@ -519,3 +519,16 @@ class TestStrongestFirst:
         resp = np.concatenate([resp, rng.random(300).astype(np.float32)])
         assert np.array_equal(strongest_first(resp), np.argsort(-resp, kind="stable"))
         assert strongest_first(resp[:0]).tolist() == []
+
+
+@pytest.mark.parametrize("shape", [(0, 2), (2, 0), (0, 0)])
+def test_an_empty_response_has_no_point(shape):
+    """moravec_response gives an empty response for an empty image; moravec_points finds
+    no point on it (before 2026-12-06: cv2.error from the dilation)."""
+    v = moravec_response(np.zeros(shape, np.float32))
+    assert v.shape == shape
+    pts, resp = moravec_points(v)
+    assert pts.shape == (0, 2) and pts.dtype == np.float32
+    assert resp.shape == (0,) and resp.dtype == np.float32
+    pts, resp = moravec_points(np.zeros(shape, np.float32), subpixel=False, max_features=3)
+    assert pts.shape == (0, 2)

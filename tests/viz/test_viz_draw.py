@@ -75,3 +75,52 @@ class TestInputs:
         assert (out[..., 0] == out[..., 2]).all()
         with pytest.raises(InvalidArgumentError, match="image"):
             as_display_image(np.zeros((0, 5, 3), np.uint8), "image")
+
+
+class TestHostileDrawingInputs:
+    """Points OpenCV cannot draw (beyond +-2**20 px, the matcher's own bound) and
+    disparities that are not numbers get hopmatch's errors naming the argument, from every
+    drawing function; before 2026-12-06 a point at 4.6e18 px was a cv2.error and a string of
+    disparities NumPy's bare ValueError."""
+
+    img = np.zeros((40, 50), np.uint8)
+    pts = np.float32([[10, 10], [30, 20], [40, 30]])
+    far = np.float32([[10, 10], [2.0**62, 20], [40, 30]])
+    pairs = np.array([[0, 0], [1, 1], [2, 2]])
+
+    def test_far_points_are_refused_by_name(self):
+        far_kps = [cv2.KeyPoint(float(x), float(y), 5) for x, y in self.far]
+        calls = {
+            "points": lambda p: viz.draw_disparity(self.img, p, [1.0, 2.0, 3.0]),
+            "points ": lambda p: viz.draw_keypoint_disparities(self.img, p, [1.0, 2.0, 3.0]),
+            "kps_l": lambda p: viz.draw_match_overview(self.img, self.img, p, self.pts,
+                                                       self.pairs),
+            "kps_r": lambda p: viz.draw_matches(self.img, self.img, self.pts, p, self.pairs),
+            "kps_l ": lambda p: viz.draw_labelled_matches(self.img, self.img, p, self.pts,
+                                                          self.pairs),
+            "keypoints": lambda p: viz.draw_keypoints(self.img, p),
+        }
+        for name, call in calls.items():
+            for far in (self.far, far_kps):
+                with pytest.raises(InvalidArgumentError, match=rf"`{name.strip()}` holds a "
+                                                               "coordinate of magnitude"):
+                    call(far)
+        # at the bound itself they draw (off the picture)
+        edge = self.pts.copy()
+        edge[1] = 2.0**20
+        assert viz.draw_disparity(self.img, edge, [1.0, 2.0, 3.0]).shape == (40, 50, 3)
+
+    @pytest.mark.parametrize("bad", ["abc", ["a", "b", "c"], [object()] * 3, [[1, 2], [3]]])
+    def test_disparities_that_are_not_numbers_are_refused_by_name(self, bad):
+        for call in (lambda: viz.draw_disparity(self.img, self.pts, bad),
+                     lambda: viz.draw_keypoint_disparities(self.img, self.pts, bad),
+                     lambda: viz.draw_match_overview(self.img, self.img, self.pts, self.pts,
+                                                     self.pairs, bad)):
+            with pytest.raises(InvalidTypeError, match="`disparities`"):
+                call()
+
+    def test_disparities_one_per_point_or_match(self):
+        with pytest.raises(InvalidArgumentError, match=r"one value per point \(3\), got 2"):
+            viz.draw_disparity(self.img, self.pts, [1.0, 2.0])
+        with pytest.raises(InvalidArgumentError, match=r"one value per match \(3\), got 1"):
+            viz.draw_match_overview(self.img, self.img, self.pts, self.pts, self.pairs, [1.0])
