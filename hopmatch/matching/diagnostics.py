@@ -392,14 +392,16 @@ def lines_missing_image(fundamental, q_pts, train_size) -> int:
 
 
 def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None, *, fundamental=None,
-                      train_size=None) -> str:
+                      train_size=None, fundamental_given: bool = True) -> str:
     """The likely reason why the network ``result`` kept almost no match, in words. With
     the keypoints ``q_pts``, ``t_pts`` the gain is measured on clear look-alikes within
     the disparity range and ``max(FEW_MATCHES_BAND, 4 max_vertical)`` rows
     (:func:`contrast_ratio`). With ``fundamental`` (the matrix searched along) and
     ``train_size`` (the right image's (width, height)), a search that found no candidate
     says how many left keypoints' epipolar lines miss the right image when half of them or
-    more do (:func:`lines_missing_image`)."""
+    more do (:func:`lines_missing_image`), and the words name the caller's
+    ``fundamental_matrix``, or with ``fundamental_given=False`` the matrix estimated from
+    the pair (``match_stereo(rectified=False)``)."""
     look = None
     if q_pts is not None and t_pts is not None and config.max_disparity is not None:
         look = clear_look_alikes(q_pts, t_pts, qd, td, config.min_disparity or 0.0,
@@ -413,11 +415,16 @@ def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None, *, fundame
                 "(uint8 against uint16, or floats in [0, 1]), and the similarity gate "
                 "(similarity_gate) rejects their true matches; give both images the same "
                 "scale first (e.g. convert both to uint8 with cv2.normalize)")
+    matrix = ("`fundamental_matrix`" if fundamental_given
+              else "the fundamental matrix estimated from the pair")
     if not len(result.neuron_left) and fundamental is not None:
         band = (f"no candidate pair lies in the epipolar band (within {config.max_vertical:g} "
-                f"px of the lines of `fundamental_matrix`, disparity in "
+                f"px of the lines of {matrix}, disparity in "
                 f"[{config.min_disparity:g}, {config.max_disparity:g}]) with similar enough "
                 "windows")
+        if not fundamental_given:
+            return (f"{band}: the geometry estimated from the pair (result.geometry) does not "
+                    "fit it")
         missing = (lines_missing_image(fundamental, q_pts, train_size)
                    if q_pts is not None and train_size is not None else 0)
         if missing >= 0.5 * len(q_pts):
@@ -438,7 +445,7 @@ def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None, *, fundame
         return (f"no candidate has a neighbour within neighbour_width x neighbour_height "
                 f"({config.neighbour_width:g} x {config.neighbour_height:g} px), so nothing "
                 "supports any match; widen the neighbourhood")
-    given = ("" if fundamental is None else
+    given = ("" if fundamental is None or not fundamental_given else
              "; check that `fundamental_matrix` is this pair's: candidates along the lines of "
              "another matrix do not support each other")
     if not result.state.any():
@@ -452,7 +459,8 @@ def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None, *, fundame
 
 def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
                         range_found: bool = True, kept: int | None = None,
-                        exposure: str = "", fundamental=None, train_size=None) -> bool:
+                        exposure: str = "", fundamental=None, train_size=None,
+                        fundamental_given: bool = True) -> bool:
     """Warn (:class:`~hopmatch.errors.FewMatchesWarning`) when a pair of at least
     :data:`FEW_MATCHES_MIN_POINTS` keypoints a side kept fewer than
     ``max(FEW_MATCHES_FLOOR, FEW_MATCHES_FRACTION * keypoints)`` matches, saying the
@@ -460,8 +468,8 @@ def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
     ``range_found`` is False, that the disparity range could not be found and the whole
     fallback range was searched. ``kept``: the matches kept in the end, when passes after
     the network added some (None: the network's). ``exposure``: :func:`exposure_note`'s
-    words, given as the cause when not empty. ``fundamental``, ``train_size``: as for
-    :func:`few_matches_cause`. Returns whether it warned."""
+    words, given as the cause when not empty. ``fundamental``, ``train_size``,
+    ``fundamental_given``: as for :func:`few_matches_cause`. Returns whether it warned."""
     n = min(len(q_pts), len(t_pts))
     by_network = len(result.query_idx)
     kept = by_network if kept is None else kept
@@ -472,7 +480,8 @@ def warn_if_few_matches(result, q_pts, t_pts, qd, td, config, *,
         f"[{config.min_disparity:g}, {config.max_disparity:g}] was searched)")
     network = "" if kept == by_network else f" ({by_network} from the network)"
     cause = exposure or few_matches_cause(result, qd, td, config, q_pts, t_pts,
-                                          fundamental=fundamental, train_size=train_size)
+                                          fundamental=fundamental, train_size=train_size,
+                                          fundamental_given=fundamental_given)
     warn(f"only {kept} matches{network} for {len(q_pts)} left and {len(t_pts)} right "
          f"keypoints{searched}: {cause}", FewMatchesWarning)
     return True

@@ -248,7 +248,8 @@ def run_hopfield_network(left, right, desc_l, desc_r, config: MatcherConfig, *, 
 def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: MatcherConfig, *,
                mask=None, fundamental=None, record_energy: bool = False,
                descriptors_checked: bool = False, raise_unrectified: bool = False,
-               few_matches_later: list | None = None) -> NetworkResult:
+               few_matches_later: list | None = None,
+               fundamental_given: bool = True) -> NetworkResult:
     """Match the descriptors of a checked pair: check the descriptors (unless
     ``descriptors_checked``: float32 or uint8 C-contiguous rows already) and the mask,
     resolve the disparity range, check every budget, warn about the geometry (SPEC-free
@@ -263,7 +264,8 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     while they are still few, else the few-matches check; and, when none of them warned
     and nothing was kept, the range fallback's warning; ``exposure=`` the caller's
     :func:`~.diagnostics.exposure_note`, when it has the images) instead of being given
-    here."""
+    here. ``fundamental_given``: False when ``fundamental`` was estimated from the pair, not
+    the caller's (the warnings' words)."""
     q_pts, t_pts = pair.query_points, pair.train_points
     if descriptors_checked:
         qd, td = query_descriptors, train_descriptors
@@ -311,7 +313,7 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
                                config, raise_unrectified, rows_share)
     check = functools.partial(warn_if_few_matches, result, q_pts, t_pts, qd, td, config,
                               range_found=found.source != "fallback", fundamental=fundamental,
-                              train_size=pair.train_size)
+                              train_size=pair.train_size, fundamental_given=fundamental_given)
     def warn_once(kept: int | None = None, exposure: str = "") -> None:
         if not warn_about_pair(diagnosis, check, q_pts, t_pts, kept=kept,
                                exposure=exposure):

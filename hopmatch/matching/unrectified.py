@@ -477,7 +477,8 @@ def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, rec
         cfg = dataclasses.replace(config, min_disparity=lo, max_disparity=hi)
     net = match_pair(PairInfo(q_l, q_r, size, size), desc_l, desc_r, cfg,
                      fundamental=fundamental, record_energy=record_energy,
-                     descriptors_checked=True, few_matches_later=few_matches_later)
+                     descriptors_checked=True, few_matches_later=few_matches_later,
+                     fundamental_given=geometry.source == "given")
     return net, mode, whole, maps
 
 

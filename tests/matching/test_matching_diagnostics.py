@@ -393,6 +393,19 @@ def test_few_matches_with_a_matrix_that_is_not_the_pairs_f():
                                                    fundamental_matrix=shifted))
     assert hits and "miss the right image" not in hits[0] \
         and "`fundamental_matrix` is this pair's" in hits[0], hits
+    # a matrix match_stereo(rectified=False) estimated is not called the caller's
+    from hopmatch.matching.diagnostics import few_matches_cause
+
+    pl, pr, dl, dr = _features(left, right)
+    res = hopmatch.hopfield_match(pl, pr, dl, dr, image_size=(260, 200), max_disparity=16,
+                                  fundamental_matrix=np.eye(3))
+    assert len(res.neuron_left) == 0
+    for given, words, not_words in ((True, "miss the right image", "estimated"),
+                                    (False, "estimated from the pair (result.geometry)",
+                                     "`fundamental_matrix`")):
+        cause = few_matches_cause(res, dl, dr, res.config, pl, pr, fundamental=np.eye(3),
+                                  train_size=(260, 200), fundamental_given=given)
+        assert words in cause and not_words not in cause, cause
     # the count itself: lines y = y_l (crossing a 100 x 50 image) for y_l < 50, else not
     pts = np.array([[10, 5], [10, 49], [10, 50], [10, 400]], np.float32)
     assert lines_missing_image(rows, pts, (100, 50)) == 2
