@@ -31,11 +31,11 @@ __all__ = [
     "as_disparities",
     "as_display_image",
     "as_index_pairs",
-    "drawable_points",
     "disparity_colours",
     "draw_disparity",
     "draw_keypoints",
     "draw_matches",
+    "drawable_points",
 ]
 
 #: BGR colours of correct, wrong and unknown matches.
