@@ -210,9 +210,7 @@ class StereoHopfield(Configurable):
         """
         from .stereo.depth import sparse_disparity_image  # hopmatch.stereo loads on first use
 
-        out_dtype = self._output_dtype(disparity, dtype)
-        if disparity is not None:  # refused before the work, not when it is filled
-            _check_output(disparity, left)
+        out_dtype = self._output_dtype(disparity, dtype, left)  # before the work
         detector, matcher = stereo_pipeline(self.pipeline_parameters(), "StereoHopfield")
         result = match_stereo(left, right, detector=detector, matcher=matcher)
         self._last = result
@@ -237,7 +235,11 @@ class StereoHopfield(Configurable):
         return disparity
 
     @staticmethod
-    def _output_dtype(disparity, dtype):
+    def _output_dtype(disparity, dtype, left):
+        """The dtype :meth:`compute` fills, from ``dtype`` and the output array
+        ``disparity``; an output array must be int16 or float32 (the one ``dtype`` asks
+        for), of the left image's ``(H, W)`` (a left image that is not one is left to
+        :func:`~hopmatch.match_stereo` to refuse) and writeable."""
         wanted = None
         if dtype is not None:
             if isinstance(dtype, (int, np.integer)) and not isinstance(dtype, bool):
@@ -265,6 +267,14 @@ class StereoHopfield(Configurable):
             raise InvalidArgumentError(
                 f"`disparity` is {disparity.dtype} but `dtype` asks for "
                 f"{np.dtype(wanted)}; give one of them", argument="disparity")
+        if len(np.shape(left)) >= 2 and disparity.shape != _left_shape(left):
+            raise InvalidArgumentError(
+                f"`disparity` must have the left image's shape {_left_shape(left)} (H, W), got "
+                f"{disparity.shape}", argument="disparity")
+        if not disparity.flags.writeable:
+            raise InvalidArgumentError(
+                "`disparity` must be writeable (it is filled in place), got a read-only array; "
+                "pass a copy, or no output array", argument="disparity")
         return disparity.dtype.type
 
     def getLastResult(self) -> StereoMatchResult | None:  # noqa: N802 (cv2 naming)
@@ -284,20 +294,6 @@ class StereoHopfield(Configurable):
     def __setstate__(self, state):
         super().__setstate__(state)
         self._last = None
-
-
-def _check_output(disparity: np.ndarray, left) -> None:
-    """Raise :class:`~hopmatch.errors.InvalidArgumentError` unless the output array
-    ``disparity`` has the left image's ``(H, W)`` and can be written (a left image that is
-    not one is left to :func:`~hopmatch.match_stereo` to refuse)."""
-    if len(np.shape(left)) >= 2 and disparity.shape != _left_shape(left):
-        raise InvalidArgumentError(
-            f"`disparity` must have the left image's shape {_left_shape(left)} (H, W), got "
-            f"{disparity.shape}", argument="disparity")
-    if not disparity.flags.writeable:
-        raise InvalidArgumentError(
-            "`disparity` must be writeable (it is filled in place), got a read-only array; "
-            "pass a copy, or no output array", argument="disparity")
 
 
 def _left_shape(left) -> tuple[int, int]:
