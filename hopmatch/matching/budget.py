@@ -49,9 +49,11 @@ def sparse_neighbour_pairs_bound(points: np.ndarray, half_w: float, half_h: floa
     return int((counts * around).sum()) - n
 
 
-def check_neighbour_budget(points: np.ndarray, config) -> None:
+def check_neighbour_budget(points: np.ndarray, config, grown: bool = False) -> None:
     """Refuse point sets whose neighbour lists alone would exceed ``max_interactions``
-    entries (many coincident or crowded points), before the kernel allocates them."""
+    entries (many coincident or crowded points), before the kernel allocates them.
+    ``grown``: the window of ``config`` was grown for sparse points (``min_neighbours``;
+    the message says so)."""
     max_interactions = config.max_interactions
     if len(points) * (len(points) - 1) <= max_interactions:
         return
@@ -61,8 +63,11 @@ def check_neighbour_budget(points: np.ndarray, config) -> None:
         raise BudgetExceededError(
             f"the left points are so crowded that their neighbour lists could hold {bound} "
             f"pairs (an upper bound), more than max_interactions={max_interactions}; "
-            "remove duplicate keypoints, shrink neighbour_width/neighbour_height, use fewer "
-            "keypoints, or raise max_interactions", argument="max_interactions"
+            + (f"the neighbour window was grown to {config.neighbour_width:g} x "
+               f"{config.neighbour_height:g} px because most points have few neighbours "
+               "(min_neighbours=0 keeps it as given); " if grown else "")
+            + "remove duplicate keypoints, shrink neighbour_width/neighbour_height, use "
+            "fewer keypoints, or raise max_interactions", argument="max_interactions"
         )
 
 

@@ -23,6 +23,7 @@ import numpy as np
 from .._warnings import warn
 from ..errors import BudgetExceededError, DisparityRangeWarning
 from .candidates import candidate_pairs
+from .neighbourhood import scaled_neighbourhood
 
 #: Left points the coarse pass keeps (one per cell of a grid over their bounding box).
 COARSE_POINTS = 1500
@@ -118,10 +119,9 @@ def coarse_config(config, n_left: int, n_kept: int, min_disparity: float,
     """``config`` for the coarse pass over ``n_kept`` of ``n_left`` left points: neighbour
     window and θ scaled by ``f = sqrt(n_left / n_kept)``, the given search range."""
     f = float(np.sqrt(n_left / max(n_kept, 1)))
-    return dataclasses.replace(
-        config, min_disparity=float(min_disparity), max_disparity=float(max_disparity),
-        neighbour_width=config.neighbour_width * f,
-        neighbour_height=config.neighbour_height * f, theta=config.theta * f)
+    return dataclasses.replace(scaled_neighbourhood(config, f),
+                               min_disparity=float(min_disparity),
+                               max_disparity=float(max_disparity))
 
 
 def run_on_thinned(run_network, config, q_pts, t_pts, qd, td, keep, bottom: float,

@@ -1,4 +1,6 @@
-"""The neighbour lists and local disparity planes of the guided pass and the refinement
+"""The neighbour window (SPEC section 4) beyond the network's own lists: its growth for
+sparse keypoints (:func:`grown_for_density`, :func:`scaled_neighbourhood`), and the
+neighbour lists and local disparity planes of the guided pass and the refinement
 (:func:`hopmatch._kernels.guided.query_neighbours`, :func:`~hopmatch._kernels.guided.
 neighbour_planes`), computed on contiguous ranges of the queries in up to ``threads``
 threads (:func:`hopmatch._threads.map_ranges`).
@@ -10,9 +12,12 @@ bit-identical to one call for any thread count.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .._kernels import guided as _kg
+from .._kernels import neighbours as _kn
 from .._threads import map_ranges
 from .candidates import BAND_LIMIT
 
@@ -24,6 +29,59 @@ def half_sides(width: float, height: float, scale: float = 1.0):
     ``neighbour_width=1e39`` is inf in float32)."""
     return (np.float32(min(scale * width / 2, BAND_LIMIT)),
             np.float32(min(scale * height / 2, BAND_LIMIT)))
+
+
+#: Left points whose neighbours :func:`median_neighbours` counts: a stride sample of this
+#: many (all of them when there are fewer).
+DENSITY_SAMPLE = 2000
+#: Most the neighbour window grows, per side, for sparse keypoints
+#: (:func:`grown_for_density`).
+MAX_WINDOW_GROWTH = 4.0
+
+
+def median_neighbours(points: np.ndarray, width: float, height: float, cap: int) -> float:
+    """Median, over a stride sample of :data:`DENSITY_SAMPLE` of ``points`` ((N, 2) (x, y),
+    N >= 2, in their order), of how many other points lie in each one's ``width x height``
+    window (:func:`hopmatch._kernels.neighbours.neighbour_counts`), each counted up to
+    ``cap``: the median is exact when it is below ``cap``."""
+    pts = np.ascontiguousarray(points, dtype=np.float32)
+    step = -(-len(pts) // DENSITY_SAMPLE)
+    sample = np.arange(0, len(pts), step, dtype=np.int64)
+    counts = _kn.neighbour_counts(pts, sample, *half_sides(width, height), int(cap))
+    return float(np.median(counts))
+
+
+def scaled_neighbourhood(config, factor: float):
+    """``config`` (a :class:`~hopmatch.matching.params.MatcherConfig`) with the neighbour
+    window and θ (eq. 5) scaled by ``factor``: on a slanted surface the disparity
+    differences of neighbours grow with their distance, and θ bounds them. The coarse
+    pass's thinned points and sparse keypoints (:func:`grown_for_density`) alike."""
+    return dataclasses.replace(config, neighbour_width=config.neighbour_width * factor,
+                               neighbour_height=config.neighbour_height * factor,
+                               theta=config.theta * factor)
+
+
+def grown_for_density(config, points: np.ndarray) -> tuple:
+    """``(config, factor)``: the neighbour window grown for sparse left ``points``.
+
+    When the median left point has fewer than ``config.min_neighbours`` other left points in
+    its neighbour window (:func:`median_neighbours`), the window and θ are scaled
+    (:func:`scaled_neighbourhood`) by ``sqrt(min_neighbours / max(median, 0.5))``, at most
+    :data:`MAX_WINDOW_GROWTH`: for points of even density the median then comes to about
+    ``min_neighbours``. The network's continuity (eqs. 10-12) rests on neighbours, and
+    the defaults were set on the detector's density (a median of 22-33 neighbours on every
+    shared scene); a larger ``nms_size``, ``max_features``, or SIFT's and ORB's keypoints
+    leave a few or none (docs/parameters.md, "Sparse keypoints"). Otherwise, and with
+    ``min_neighbours`` 0, ``config`` itself and 1.0."""
+    target = float(config.min_neighbours)
+    if target <= 0 or len(points) < 2:
+        return config, 1.0
+    median = median_neighbours(points, config.neighbour_width, config.neighbour_height,
+                               int(np.ceil(target)))
+    if median >= target:
+        return config, 1.0
+    factor = min(MAX_WINDOW_GROWTH, float(np.sqrt(target / max(median, 0.5))))
+    return scaled_neighbourhood(config, factor), factor
 
 
 def query_neighbours(queries, matched, half_w, half_h, threads: int | None = None):

@@ -48,7 +48,7 @@ from .disparity_range import (
     warn_fallback,
     warn_if_negative,
 )
-from .neighbourhood import half_sides
+from .neighbourhood import grown_for_density, half_sides
 from .params import MatcherConfig, check_disparity_order, matcher_config
 from .similarity import (
     WINDOW_MEAN_TOL,  # noqa: E402, F401
@@ -285,7 +285,8 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
         )
     mask = as_mask(mask, (len(q_pts), len(t_pts)), "mask", of="(n_query, n_train)")
     check_energy_trace(config.max_iterations, record_energy)
-    check_neighbour_budget(q_pts, config)
+    config, growth = grown_for_density(config, q_pts)
+    check_neighbour_budget(q_pts, config, grown=growth > 1.0)
     prior, rows_share, t_search = None, None, t_pts
     if fundamental is None and config.vertical_model == "plane" and len(qd) and len(td):
         look_alikes = prior_look_alikes(q_pts, t_pts, qd, td,

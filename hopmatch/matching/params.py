@@ -33,6 +33,12 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "4; paper: 40)")),
     Param("neighbour_height", 20.0, real(0.0), doc=(
         "Height in pixels of that window of neighbours (paper: 20)")),
+    Param("min_neighbours", 8.0, real(0.0, 1000.0), doc=(
+        "When the median left keypoint has fewer than this many other left keypoints in "
+        "the neighbour window (sparse keypoints: a large nms_size, max_features, SIFT's), "
+        "the window and theta grow until it has, at most 4-fold per side "
+        "(hopmatch.matching.neighbourhood.grown_for_density; result.config holds the "
+        "window used); 0: the window as given, as in the paper")),
     # compatibility, eq. 5
     Param("theta", 2.0, real(0.0), doc=(
         "Threshold theta of the compatibility, eq. 5, in pixels: neighbouring pairs whose "
@@ -149,6 +155,7 @@ PRESETS: dict[str, dict] = {
         "max_vertical": 15.0,
         "neighbour_width": 40.0,
         "neighbour_height": 20.0,
+        "min_neighbours": 0.0,
         "theta": 10.0,
         "slope": 1.0,
         "similarity_weight": 1.0,

@@ -55,6 +55,32 @@ class TestNeighbours:
         assert got == [[j for j in want[i] if j in has] if i in has else []
                        for i in range(len(pts))]
 
+    @pytest.mark.parametrize("seed", [0, 3])
+    @pytest.mark.parametrize("width,height", [(40.0, 20.0), (10.0, 4.0), (0.0, 0.0),
+                                              (1000.0, 2.0)])
+    @pytest.mark.parametrize("cap", [1, 5, 10**9])
+    def test_neighbour_counts_equal_brute_force_up_to_the_cap(self, seed, width, height, cap):
+        pts, _, _, _ = make_problem(seed, 300, integer=True)
+        pts[5] = pts[6]                        # a duplicate point: neighbour at distance 0
+        queries = np.r_[np.arange(0, 300, 7), 5, 6].astype(np.int64)
+        got = _k.neighbour_counts(pts, queries, np.float32(width / 2), np.float32(height / 2),
+                                  cap)
+        want = [min(len(naive.neighbours(pts, width, height)[i]), cap) for i in queries]
+        assert got.tolist() == want
+        assert got[-1] >= 1 and got[-2] >= 1  # the duplicates count each other
+        if width == 40.0 and cap > 100:
+            assert max(want) > 5
+
+    def test_neighbour_counts_stop_at_the_cap_on_crowded_points(self):
+        """100 000 coincident points: each query counts to the cap and stops."""
+        pts = np.zeros((100_000, 2), dtype=np.float32)
+        got = _k.neighbour_counts(pts, np.arange(0, 100_000, 1000, dtype=np.int64),
+                                  np.float32(20.0), np.float32(10.0), 9)
+        assert got.tolist() == [9] * 100
+        empty = _k.neighbour_counts(pts[:1], np.zeros(1, dtype=np.int64), np.float32(20.0),
+                                    np.float32(10.0), 9)
+        assert empty.tolist() == [0]
+
     @pytest.mark.parametrize("seed", range(6))
     def test_neighbour_pairs_bound_dense_equals_sparse(self, seed):
         """The dense-grid count of the neighbour bound equals the sorted-key count, and

@@ -589,3 +589,18 @@ def test_thinned_network_smoke():
                         r"\d+ of \d+ \| \d+ / [\d.]+)", lines[1]), lines[1]
     assert re.fullmatch(r"pooled over the \d+ scenes run both ways: defaults \d+ correct, "
                         r"thinned \d+ \([\d.]+x\)", lines[2]), lines[2]
+
+
+def test_neighbour_density_smoke():
+    """docs/parameters.md ("Sparse keypoints") quotes its columns: keypoints and median
+    neighbours per detector, and the growth min_neighbours gives; the detector's own
+    points are dense enough not to grow, nms_size 15's are not."""
+    out = run_script("neighbour_density.py")
+    cellre = r"\d+:[\d.]+(?: \(x[\d.]+\))?"
+    assert_lines(out,
+                 r"\| scene \| defaults \| nms_size 9 \| nms_size 15 \| max_features 2000 \| "
+                 r"SIFT \| ORB\(3000\) \|",
+                 table_row("motorcycle", r"\d+:[\d.]+", *[cellre] * 2, r"\d+:[\d.]+", cellre,
+                           cellre))
+    row = next(line for line in out.splitlines() if line.startswith("| motorcycle"))
+    assert "(x" in row.split("|")[4], row  # nms_size 15 grows the window
