@@ -16,6 +16,7 @@ from ..errors import (
 )
 from ..feature.padding import black_padding
 from .candidates import best_two_look_alikes, candidate_pairs, clear_best_look_alikes
+from .neighbourhood import median_neighbours
 from .similarity import similarity_distance, window_contrasts
 
 # Rectification check (docs/robustness.md): how many left points are sampled, the band
@@ -71,6 +72,9 @@ FEW_MATCHES_FRACTION = 0.01
 FEW_MATCHES_CONTRAST = 1.5
 #: Rows (at least) of the band in which the few-matches gain test looks for look-alikes.
 FEW_MATCHES_BAND = 4.0
+#: A network that kept nothing is said to lack neighbours when the median left keypoint
+#: has fewer than this many others in its (possibly grown) neighbour window.
+FEW_NEIGHBOURS = 4
 #: :func:`exposure_note`: a view is called clipped when at least this share of its pixels
 #: sit at its brightest (or darkest) level and that share exceeds the other view's by
 #: at least :data:`CLIPPED_LEAD`; the views are sampled every :data:`CLIPPED_STRIDE` px.
@@ -449,6 +453,16 @@ def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None, *, fundame
              "; check that `fundamental_matrix` is this pair's: candidates along the lines of "
              "another matrix do not support each other")
     if not result.state.any():
+        sparse = (median_neighbours(q_pts, config.neighbour_width, config.neighbour_height,
+                                    FEW_NEIGHBOURS) if q_pts is not None and len(q_pts) > 1
+                  else FEW_NEIGHBOURS)
+        if sparse < FEW_NEIGHBOURS:
+            return (f"the network kept no neuron active: the median left keypoint has "
+                    f"{sparse:g} other left keypoints in the neighbour window "
+                    f"({config.neighbour_width:g} x {config.neighbour_height:g} px), too few "
+                    "to support one another (the defaults grow the window to about 8, "
+                    "min_neighbours, at most 4-fold); use denser keypoints (the detector's "
+                    "defaults, a smaller nms_size) or a larger min_neighbours" + given)
         return ("the network kept no neuron active (input_bias, slope, theta or "
                 "uniqueness_weight leave no match enough support); try the defaults" + given)
     return ("the candidates support each other too little: the images may not show the same "

@@ -87,10 +87,12 @@ def shifted_texture(d=8):
 @pytest.mark.parametrize("nms_size", [15, 21])
 def test_sparse_keypoints_are_matched_where_the_given_window_keeps_none(nms_size):
     """The detector's points spread out (one per 15 or 21 px): with the window as given the
-    network keeps no neuron (and says so); grown, it matches nearly every point, at the
-    pair's disparity."""
+    network keeps no neuron (and says that the points have too few neighbours); grown, it
+    matches nearly every point, at the pair's disparity."""
     left, right = shifted_texture()
-    with pytest.warns(hopmatch.errors.FewMatchesWarning):
+    with pytest.warns(hopmatch.errors.FewMatchesWarning,
+                      match=r"the median left keypoint has [0-3] other left keypoints in the "
+                            r"neighbour window \(40 x 20 px\), too few"):
         given = hopmatch.match_stereo(left, right, max_disparity=20, guided=False,
                                       nms_size=nms_size, min_neighbours=0)
     assert len(given.matched_left) == 0
