@@ -73,7 +73,8 @@ FEW_MATCHES_CONTRAST = 1.5
 #: Rows (at least) of the band in which the few-matches gain test looks for look-alikes.
 FEW_MATCHES_BAND = 4.0
 #: A network that kept nothing is said to lack neighbours when the median left keypoint
-#: has fewer than this many others in its (possibly grown) neighbour window.
+#: has fewer than this many others (or than ``min_neighbours``, when larger) in the
+#: neighbour window it ran with (grown or not).
 FEW_NEIGHBOURS = 4
 #: :func:`exposure_note`: a view is called clipped when at least this share of its pixels
 #: sit at its brightest (or darkest) level and that share exceeds the other view's by
@@ -453,16 +454,17 @@ def few_matches_cause(result, qd, td, config, q_pts=None, t_pts=None, *, fundame
              "; check that `fundamental_matrix` is this pair's: candidates along the lines of "
              "another matrix do not support each other")
     if not result.state.any():
+        few = max(FEW_NEIGHBOURS, float(config.min_neighbours))
         sparse = (median_neighbours(q_pts, config.neighbour_width, config.neighbour_height,
-                                    FEW_NEIGHBOURS) if q_pts is not None and len(q_pts) > 1
-                  else FEW_NEIGHBOURS)
-        if sparse < FEW_NEIGHBOURS:
+                                    int(np.ceil(few))) if q_pts is not None and len(q_pts) > 1
+                  else few)
+        if sparse < few:
             return (f"the network kept no neuron active: the median left keypoint has "
                     f"{sparse:g} other left keypoints in the neighbour window "
                     f"({config.neighbour_width:g} x {config.neighbour_height:g} px), too few "
-                    "to support one another (the defaults grow the window to about 8, "
-                    "min_neighbours, at most 4-fold); use denser keypoints (the detector's "
-                    "defaults, a smaller nms_size) or a larger min_neighbours" + given)
+                    "to support one another; use denser keypoints (the detector's defaults, "
+                    "a smaller nms_size) or a wider window (neighbour_width, "
+                    "neighbour_height; min_neighbours grows it at most 4-fold)" + given)
         return ("the network kept no neuron active (input_bias, slope, theta or "
                 "uniqueness_weight leave no match enough support); try the defaults" + given)
     return ("the candidates support each other too little: the images may not show the same "

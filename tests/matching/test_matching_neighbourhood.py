@@ -127,3 +127,27 @@ def test_a_grown_window_over_the_budget_says_it_was_grown():
         matcher.match(desc, desc)
     matcher.setMinNeighbours(0)
     matcher.match(desc, desc)  # the given window keeps the crowd's lists within budget
+
+
+@pytest.mark.parametrize("width,min_neighbours,sparse", [(40.0, 0.0, True), (160.0, 8.0, True),
+                                                        (40.0, 8.0, False)])
+def test_a_network_that_kept_nothing_is_said_to_lack_neighbours(width, min_neighbours,
+                                                                sparse):
+    """The few-matches cause of a network that kept no neuron: points 50 px apart have no
+    other point in a 40 x 20 window (fewer than 4) and 6 in a 160 x 80 one (a window grown
+    4-fold; fewer than min_neighbours, 8): too few either way; a 10 px grid has enough."""
+    from types import SimpleNamespace
+
+    from hopmatch.matching.diagnostics import few_matches_cause
+    pts = grid(50.0, 50.0) if sparse else grid(10.0, 10.0)
+    desc = np.random.default_rng(0).normal(size=(len(pts), 81)).astype(np.float32)
+    config = matcher_config({"neighbour_width": width, "neighbour_height": width / 2,
+                             "min_neighbours": min_neighbours, "max_disparity": 10.0})
+    result = SimpleNamespace(neuron_left=np.arange(5), n_interactions=10,
+                             state=np.zeros(5, dtype=bool))
+    cause = few_matches_cause(result, desc, desc, config, pts, pts)
+    if sparse:
+        assert (f"in the neighbour window ({width:g} x {width / 2:g} px), too few to support "
+                "one another" in cause), cause
+    else:
+        assert "input_bias, slope, theta" in cause, cause
