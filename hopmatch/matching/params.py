@@ -36,9 +36,10 @@ MATCHER_PARAMS: tuple[Param, ...] = (
     Param("min_neighbours", 8.0, real(0.0, 1000.0), doc=(
         "When the median left keypoint has fewer than this many other left keypoints in "
         "the neighbour window (sparse keypoints: a large nms_size, max_features, SIFT's), "
-        "the window and theta grow until it has, at most 4-fold per side "
-        "(hopmatch.matching.neighbourhood.grown_for_density; result.config holds the "
-        "window used); 0: the window as given, as in the paper")),
+        "the window and theta grow until it has about that many, at most 4-fold per side "
+        "(hopmatch.matching.neighbourhood.grown_for_density; the network result's config, "
+        "match_stereo's result.network.config or the matcher's getLastResult().config, "
+        "holds the window used); 0: the window as given, as in the paper")),
     # compatibility, eq. 5
     Param("theta", 2.0, real(0.0), doc=(
         "Threshold theta of the compatibility, eq. 5, in pixels: neighbouring pairs whose "
