@@ -69,10 +69,10 @@ def grown_for_density(config, points: np.ndarray) -> tuple:
     (:func:`scaled_neighbourhood`) by ``sqrt(min_neighbours / max(median, 0.5))``, at most
     :data:`MAX_WINDOW_GROWTH`: for points of even density the median then comes to about
     ``min_neighbours``. The network's continuity (eqs. 10-12) rests on neighbours, and
-    the defaults were set on the detector's density (a median of 22-33 neighbours on every
-    shared scene); a larger ``nms_size``, ``max_features``, or SIFT's and ORB's keypoints
-    leave a few or none (docs/parameters.md, "Sparse keypoints"). Otherwise, and with
-    ``min_neighbours`` 0, ``config`` itself and 1.0."""
+    the defaults were set on the detector's own density; a larger ``nms_size``,
+    ``max_features``, or SIFT's and ORB's keypoints can leave a few or none
+    (docs/parameters.md, "Sparse keypoints"). Otherwise, and with ``min_neighbours`` 0,
+    ``config`` itself and 1.0."""
     target = float(config.min_neighbours)
     if target <= 0 or len(points) < 2:
         return config, 1.0
