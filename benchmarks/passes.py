@@ -45,7 +45,15 @@ height, applied last), or any combination joined by ``+``. ``lr-`` before
 well (its noise drawn with seed 1): the two views of one camera saved alike. ``left-``
 before ``dy``, ``dx``, ``rot`` or ``scale`` (``left-rot3``) moves the left view instead,
 its points mapped back before scoring too; before a grey-level change (``left-gain1.3``)
-it changes the left view instead (noise with seed 1).
+it changes the left view instead (noise with seed 1). ``size0.6`` resizes the whole scene
+first (both views with ``cv2.INTER_AREA``, the ground truth to the same size with
+``cv2.INTER_NEAREST`` and its disparities times 0.6), so that it is scored at that size,
+as a data set shipped at that resolution would be: the held-out scenes come in sizes the
+shared ones do not (Middlebury 2003 at quarter size, 450 x 375...). ``mirror`` makes a
+scene nobody tuned on out of one that ships the right view's ground truth
+(``disparity_right``; the other scenes are skipped): the left view is the right one
+mirrored, the right view the left one mirrored, the truth the right view's mirrored (a
+left-camera view of the mirrored world), applied first.
 
 ``--smoke``: motorcycle's centre crop only (figures mean nothing).
 
@@ -138,6 +146,11 @@ def perturbation(spec: str, shape) -> np.ndarray:
         elif part.startswith("top"):
             if not 0 <= int(part[3:]) < h:
                 raise SystemExit(f"top takes a number of rows below the height, got {part!r}")
+        elif part == "mirror":
+            continue
+        elif part.startswith("size"):
+            if not 0.05 <= float(part[4:]) <= 4.0:
+                raise SystemExit(f"size takes a factor in [0.05, 4], got {part!r}")
         elif not part.removeprefix("lr-").startswith(GREY_CHANGES):
             raise SystemExit(f"unknown perturbation {part!r}")
         elif part.startswith("lr-") and not part.startswith(LEFT_TOO):
@@ -210,6 +223,36 @@ def perturb_left(left: np.ndarray, spec: str):
         if part.startswith(("lr-", "left-")):
             left = grey_change(left, part.removeprefix("lr-").removeprefix("left-"), seed=1)
     return left, m
+
+
+def mirrored_scene(scene):
+    """``scene`` with its views swapped and mirrored left to right, its truth the right
+    view's mirrored (``mirror`` in the module doc); None without ``disparity_right``."""
+    if scene.disparity_right is None:
+        return None
+    flip = np.ascontiguousarray
+    return dataclasses.replace(scene, left=flip(scene.right[:, ::-1]),
+                               right=flip(scene.left[:, ::-1]),
+                               disparity=flip(scene.disparity_right[:, ::-1]),
+                               disparity_right=flip(scene.disparity[:, ::-1]),
+                               disparity_all=None, nonoccluded_mask=None)
+
+
+def resized_scene(scene, spec: str):
+    """``scene`` resized by the ``size`` part of ``spec`` (the module doc), or as it is."""
+    for part in spec.split("+"):
+        if part.startswith("size"):
+            f = float(part[4:])
+            h, w = scene.left.shape[:2]
+            size = (max(1, round(w * f)), max(1, round(h * f)))
+            def shrink(im):
+                return cv2.resize(im, size, interpolation=cv2.INTER_AREA if f < 1
+                                  else cv2.INTER_LINEAR)
+            gt = cv2.resize(scene.disparity.astype(np.float32), size,
+                            interpolation=cv2.INTER_NEAREST) * np.float32(size[0] / w)
+            return dataclasses.replace(scene, left=shrink(scene.left),
+                                       right=shrink(scene.right), disparity=gt)
+    return scene
 
 
 def unmap(points: np.ndarray, m: np.ndarray) -> np.ndarray:
@@ -329,6 +372,11 @@ def main(argv=None) -> int:
         ranked = []
         for n in names:
             scene = smoke_scene(datasets.load(n)) if args.smoke else datasets.load(n)
+            if "mirror" in spec.split("+"):
+                scene = mirrored_scene(scene)
+                if scene is None:
+                    continue
+            scene = resized_scene(scene, spec)
             right, m = perturb(scene.right, spec) if spec else (scene.right, np.eye(3))
             left, m_left = perturb_left(scene.left, spec)
             with warnings.catch_warnings():  # a 64 x 64 crop, to compile: warns of nothing real
