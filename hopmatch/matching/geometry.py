@@ -3,8 +3,10 @@
 Bootstrap correspondences (OpenCV SIFT on a pyramid level of at most
 :data:`BOOTSTRAP_SIDE` pixels, or the matcher's own descriptors compared in a
 two-dimensional window when only keypoints are known), a robust fundamental matrix
-(``cv2.findFundamentalMat`` with ``cv2.USAC_MAGSAC``), checks that refuse an F the
-correspondences do not support (:class:`GeometryWarning`), a refit of F on the final
+(``cv2.findFundamentalMat`` with ``cv2.USAC_MAGSAC``), guided rounds that match the SIFT
+keypoints again along its epipolar lines and fit F again (:data:`GUIDED_ROUNDS`), checks
+that refuse an F the correspondences do not support (:class:`GeometryWarning`), a refit of
+F on the final
 matches, the similarity that lines up the rows of the two images
 (:func:`row_alignment`) and a row rectification close to the identity
 (:func:`rectifying_homographies`). ``F`` follows OpenCV's convention everywhere:
@@ -46,6 +48,15 @@ MIN_INLIERS = 30
 MIN_INLIER_RATIO = 0.25
 CHANCE_FACTOR = 2.0
 CHANCE_MARGIN = 10
+#: Guided rounds of the SIFT bootstrap: once an F is accepted, every SIFT keypoint of the
+#: left image is matched again among the right keypoints within GUIDED_BAND px (symmetric
+#: epipolar distance, full-resolution pixels per pyramid level) of its epipolar line, with
+#: the ratio test among those only (and mutual), and F is fitted again on those matches;
+#: the refit is kept when it is accepted too. Unique look-alikes along the line are far more
+#: than unique look-alikes in the whole image (a repeated texture, a board's corners), and
+#: they reach the depths the first matches missed, which fix the epipole.
+GUIDED_ROUNDS = 2
+GUIDED_BAND = 8.0
 #: The refit on the final matches: MAGSAC threshold (full-resolution pixels).
 REFIT_THRESHOLD = 1.0
 #: Points compared in the descriptor bootstrap, the half-height of its window (fraction of
@@ -152,32 +163,71 @@ def pyramid_level(gray: np.ndarray, max_side: int):
     return gray, level
 
 
-def sift_correspondences(left_gray, right_gray):
-    """``(left_points, right_points, level)``: SIFT matches (Lowe's ratio test
-    :data:`BOOTSTRAP_RATIO`, mutual) between the pyramid levels of two grey images whose
-    longer side is at most :data:`BOOTSTRAP_SIDE`, in full-resolution pixels."""
-    ratio = BOOTSTRAP_RATIO
+def sift_features(left_gray, right_gray):
+    """``(left keypoint positions, left descriptors, right positions, right descriptors,
+    level)``: OpenCV SIFT (:data:`BOOTSTRAP_FEATURES`, :data:`BOOTSTRAP_CONTRAST`) on the
+    pyramid levels of two grey images whose longer side is at most
+    :data:`BOOTSTRAP_SIDE`, positions in full-resolution pixels (float64); descriptors None
+    when an image has fewer than two keypoints."""
     a, level = pyramid_level(to_uint8(left_gray), BOOTSTRAP_SIDE)
     b, _ = pyramid_level(to_uint8(right_gray), BOOTSTRAP_SIDE)
     sift = cv2.SIFT_create(nfeatures=BOOTSTRAP_FEATURES, contrastThreshold=BOOTSTRAP_CONTRAST)
     ka, da = sift.detectAndCompute(a, None)
     kb, db = sift.detectAndCompute(b, None)
-    empty = np.zeros((0, 2), np.float32)
-    if da is None or db is None or len(ka) < 2 or len(kb) < 2:
-        return empty, empty, level
-    bf = cv2.BFMatcher(cv2.NORM_L2)
-    fwd = bf.knnMatch(da, db, k=2)
-    back = {m[0].queryIdx: m[0].trainIdx for m in bf.knnMatch(db, da, k=1) if m}
-    pairs = [(m.queryIdx, m.trainIdx) for m, n in (p for p in fwd if len(p) == 2)
-             if m.distance < ratio * n.distance and back.get(m.trainIdx) == m.queryIdx]
-    if not pairs:
-        return empty, empty, level
-    qi, ti = np.array(pairs).T
-    pa = cv2.KeyPoint_convert(ka)[qi]
-    pb = cv2.KeyPoint_convert(kb)[ti]
     s = float(2 ** level)
-    return ((pa + 0.5) * s - 0.5).astype(np.float32), ((pb + 0.5) * s - 0.5).astype(
-        np.float32), level
+
+    def positions(kps):
+        if len(kps) == 0:  # KeyPoint_convert gives () for no keypoint
+            return np.zeros((0, 2))
+        return (np.asarray(cv2.KeyPoint_convert(kps), np.float64).reshape(-1, 2) + 0.5) * s - 0.5
+
+    if da is None or db is None or len(ka) < 2 or len(kb) < 2:
+        da = db = None
+    return positions(ka), da, positions(kb), db, level
+
+
+def ratio_pairs(da, db, ratio: float, mask=None) -> tuple[np.ndarray, np.ndarray]:
+    """``(left indices, right indices)``: the mutual nearest neighbours (L2) of two
+    descriptor sets that pass Lowe's ``ratio`` test, among the pairs ``mask`` allows
+    ((N, M) uint8, or None: all)."""
+    bf = cv2.BFMatcher(cv2.NORM_L2)
+    fwd = bf.knnMatch(da, db, k=2, mask=mask) if mask is not None else bf.knnMatch(da, db, k=2)
+    back_raw = (bf.knnMatch(db, da, k=1, mask=np.ascontiguousarray(mask.T))
+                if mask is not None else bf.knnMatch(db, da, k=1))
+    back = {m[0].queryIdx: m[0].trainIdx for m in back_raw if m}
+    pairs = [(p[0].queryIdx, p[0].trainIdx) for p in fwd
+             if p and (len(p) == 1 or p[0].distance < ratio * p[1].distance)
+             and back.get(p[0].trainIdx) == p[0].queryIdx]
+    if not pairs:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    qi, ti = np.array(pairs, dtype=np.intp).T
+    return qi, ti
+
+
+def sift_correspondences(left_gray, right_gray):
+    """``(left_points, right_points, level)``: SIFT matches (Lowe's ratio test
+    :data:`BOOTSTRAP_RATIO`, mutual) between the pyramid levels of two grey images whose
+    longer side is at most :data:`BOOTSTRAP_SIDE`, in full-resolution pixels."""
+    pa, da, pb, db, level = sift_features(left_gray, right_gray)
+    empty = np.zeros((0, 2), np.float32)
+    if da is None:
+        return empty, empty, level
+    qi, ti = ratio_pairs(da, db, BOOTSTRAP_RATIO)
+    return pa[qi].astype(np.float32), pb[ti].astype(np.float32), level
+
+
+def epipolar_band(F, left, right, band: float) -> np.ndarray:
+    """(N, M) uint8: 1 where right point m lies within ``band`` px of left point n's
+    epipolar line and n within ``band`` px of m's (``[xr, yr, 1] @ F @ [xl, yl, 1] ==
+    0``)."""
+    hl = np.c_[left, np.ones(len(left))]
+    hr = np.c_[right, np.ones(len(right))]
+    lines_r = hl @ F.T  # in the right image, one per left point
+    lines_l = hr @ F  # in the left image, one per right point
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d_r = np.abs(lines_r @ hr.T) / np.hypot(lines_r[:, :1], lines_r[:, 1:2])
+        d_l = (np.abs(lines_l @ hl.T) / np.hypot(lines_l[:, :1], lines_l[:, 1:2])).T
+        return ((d_r <= band) & (d_l <= band)).astype(np.uint8)
 
 
 def descriptor_correspondences(q_pts, t_pts, qd, td, size, *, min_disparity=None,
@@ -275,9 +325,40 @@ def robust_fundamental(left, right, threshold: float = F_THRESHOLD, source: str 
 
 def estimate_geometry(left_gray, right_gray) -> EpipolarGeometry:
     """SIFT bootstrap correspondences of two grey images (:func:`sift_correspondences`),
-    then :func:`robust_fundamental`."""
-    pl, pr, level = sift_correspondences(left_gray, right_gray)
-    return robust_fundamental(pl, pr, F_THRESHOLD * 2 ** level, "sift")
+    then :func:`robust_fundamental`; once that accepts an F, :data:`GUIDED_ROUNDS` guided
+    rounds: the SIFT keypoints matched again within :data:`GUIDED_BAND` px (per pyramid
+    level) of each other's epipolar lines (:func:`epipolar_band`, :func:`ratio_pairs`) and F
+    fitted on those matches (:func:`robust_fundamental`, which must accept it, else the F
+    before is kept). The correspondences returned stay the unguided ones, with the inliers
+    of the last F among them (the guided matches include look-alikes slid along the lines,
+    which agree with F but would mislead the row alignment and the disparity range); when
+    fewer than half as many of them agree with it as with the first F, the first is
+    returned."""
+    pa, da, pb, db, level = sift_features(left_gray, right_gray)
+    threshold = F_THRESHOLD * 2 ** level
+    if da is None:
+        empty = np.zeros((0, 2), np.float32)
+        return robust_fundamental(empty, empty, threshold, "sift")
+    qi, ti = ratio_pairs(da, db, BOOTSTRAP_RATIO)
+    geometry = robust_fundamental(pa[qi], pb[ti], threshold, "sift")
+    F = geometry.fundamental
+    for _ in range(GUIDED_ROUNDS if F is not None else 0):
+        gi, gt = ratio_pairs(da, db, BOOTSTRAP_RATIO,
+                             epipolar_band(F, pa, pb, GUIDED_BAND * 2 ** level))
+        guided = robust_fundamental(pa[gi], pb[gt], threshold, "sift")
+        if guided.fundamental is None:
+            break
+        F = guided.fundamental
+    if F is None or F is geometry.fundamental:
+        return geometry
+    # the guided matches along the lines include look-alikes slid along them (consistent
+    # with F, but not correspondences): the correspondences stay the unguided ones
+    left, right = geometry.left_points, geometry.right_points
+    err = symmetric_epipolar_error(F, left, right)
+    inliers = err <= threshold
+    if inliers.sum() < geometry.inliers.sum() // 2:
+        return geometry
+    return EpipolarGeometry(F, left, right, inliers, float(np.median(err[inliers])), "sift")
 
 
 def given_geometry(fundamental, left_gray, right_gray) -> EpipolarGeometry:

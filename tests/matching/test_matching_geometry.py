@@ -14,7 +14,9 @@ from hopmatch.errors import HopmatchWarning, PairInfoError
 from hopmatch.matching.geometry import (
     GeometryWarning,
     chance_inliers,
+    epipolar_band,
     estimate_geometry,
+    ratio_pairs,
     rectifying_homographies,
     robust_fundamental,
     row_alignment,
@@ -45,6 +47,46 @@ def test_geometry_recovered_on_a_synthetic_pair_from_a_known_f(pair):
     true_l, true_r = plane_correspondences()
     err = symmetric_epipolar_error(g.fundamental, true_l, true_r)
     assert err.mean() < 0.5 and np.percentile(err, 95) < 0.5
+
+
+def test_epipolar_band_matches_a_point_by_point_reference():
+    rng = np.random.default_rng(5)
+    F = fundamental()
+    left = rng.uniform(0, 400, (60, 2))
+    right = np.concatenate([rng.uniform(0, 400, (40, 2)), plane_correspondences()[1][:30]])
+    band = 6.0
+    got = epipolar_band(F, left, right, band)
+    assert got.shape == (60, 70) and got.dtype == np.uint8
+    want = np.zeros((60, 70), np.uint8)
+    for n, (xl, yl) in enumerate(left):
+        for m, (xr, yr) in enumerate(right):
+            a, b, c = F @ [xl, yl, 1.0]  # the right image's line of the left point
+            d_right = abs(a * xr + b * yr + c) / np.hypot(a, b)
+            a, b, c = F.T @ [xr, yr, 1.0]  # the left image's line of the right point
+            d_left = abs(a * xl + b * yl + c) / np.hypot(a, b)
+            want[n, m] = d_right <= band and d_left <= band
+    assert (got == want).all() and 0 < want.sum() < want.size
+
+
+@pytest.mark.parametrize("masked", [False, True])
+def test_ratio_pairs_are_mutual_clear_nearest_neighbours_within_the_mask(masked):
+    rng = np.random.default_rng(6)
+    da = rng.normal(size=(80, 16)).astype(np.float32)
+    db = np.concatenate([da[:50] + 0.05 * rng.normal(size=(50, 16)),
+                         rng.normal(size=(40, 16))]).astype(np.float32)
+    mask = (rng.uniform(size=(80, 90)) < 0.5).astype(np.uint8) if masked else None
+    qi, ti = ratio_pairs(da, db, 0.8, mask)
+    dist = np.linalg.norm(da[:, None, :].astype(np.float64) - db[None], axis=2)
+    if mask is not None:
+        dist[mask == 0] = np.inf
+    want = []
+    for n in range(80):
+        order = np.argsort(dist[n])
+        best, second = dist[n, order[0]], dist[n, order[1]]
+        if np.isfinite(best) and best < 0.8 * second and np.argmin(dist[:, order[0]]) == n:
+            want.append((n, int(order[0])))
+    assert sorted(zip(qi.tolist(), ti.tolist())) == want
+    assert len(want) >= 10
 
 
 def box_pair(rng):
