@@ -368,7 +368,8 @@ def main(argv=None) -> int:
         print("scene | matches | correct | precision | med err | by pass (n/correct/prec/med)"
               " | ms" + (" | SIFT | SGBM" if args.baselines else ""))
         tot = {"m": 0, "c": 0, "s": 0, "sift": 0, "sgbm": 0}
-        worst = (1.0, "")
+        ran = 0
+        worst = (float("nan"), "")  # the lowest precision and its scene
         ranked = []
         for n in names:
             scene = smoke_scene(datasets.load(n)) if args.smoke else datasets.load(n)
@@ -377,6 +378,7 @@ def main(argv=None) -> int:
                 if scene is None:
                     continue
             scene = resized_scene(scene, spec)
+            ran += 1
             right, m = perturb(scene.right, spec) if spec else (scene.right, np.eye(3))
             left, m_left = perturb_left(scene.left, spec)
             with warnings.catch_warnings():  # a 64 x 64 crop, to compile: warns of nothing real
@@ -391,7 +393,8 @@ def main(argv=None) -> int:
             tot["m"] += k
             tot["c"] += c
             tot["s"] += sc.n_scored
-            worst = min(worst, (p, n))
+            if np.isfinite(p) and (not worst[1] or p < worst[0]):
+                worst = (p, n)
             passes = getattr(res, "passes", None)
             cells = []
             if passes is not None:
@@ -433,6 +436,9 @@ def main(argv=None) -> int:
             print(f"pooled best k by rank within each scene: "
                   f"{' '.join(f'{p:.4f}' for p in by_rank)}; by distance: "
                   f"{' '.join(f'{p:.4f}' for p in by_dist)}", flush=True)
+        if not ran:  # every scene skipped (mirror: none ships the right view's truth)
+            print("pooled: no scene (mirror needs a scene with disparity_right)\n", flush=True)
+            continue
         pooled = tot["c"] / tot["s"] if tot["s"] else float("nan")
         line = (f"pooled: {tot['m']} matches, {tot['c']} correct, precision {pooled:.4f}, "
                 f"worst {worst[0]:.3f} ({worst[1]})")

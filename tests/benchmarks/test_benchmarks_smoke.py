@@ -22,6 +22,7 @@ changed row label).
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -604,3 +605,46 @@ def test_neighbour_density_smoke():
                            cellre))
     row = next(line for line in out.splitlines() if line.startswith("| motorcycle"))
     assert "(x" in row.split("|")[4], row  # nms_size 15 grows the window
+
+
+def test_passes_size_and_mirror_make_consistent_scenes():
+    """``size`` resizes a whole scene (its truth scaled with it), ``mirror`` swaps and
+    mirrors the views of a scene with the right view's truth (docs/parameters.md, "Other
+    image sizes, mirrored scenes..."): the truth of the scene made still maps each left
+    pixel onto the same right pixel."""
+    sys.path.insert(0, str(BENCHMARKS))
+    try:
+        from passes import mirrored_scene, resized_scene
+    finally:
+        sys.path.remove(str(BENCHMARKS))
+    from hopmatch.datasets import StereoScene
+    rng = np.random.default_rng(0)
+    right = rng.integers(0, 256, (30, 80), dtype=np.uint8)
+    d = np.zeros((30, 80), np.float32)
+    d[:, :40], d[:, 40:] = 3.0, 7.0  # left (x, y) shows right (x - d, y)
+    left = np.zeros_like(right)
+    for x in range(80):
+        left[:, x] = right[:, max(x - int(d[0, x]), 0)]
+    d_right = np.full((30, 80), np.nan, np.float32)  # right (x, y) shows left (x + d, y)
+    for x in range(80):
+        d_right[:, max(x - int(d[0, x]), 0)] = d[0, x]
+    scene = StereoScene("synthetic", left, right, d, None, "", disparity_right=d_right)
+    mirrored = mirrored_scene(scene)
+    assert mirrored_scene(dataclasses.replace(scene, disparity_right=None)) is None
+    checked = 0
+    for x in range(80):
+        dm = mirrored.disparity[0, x]
+        if np.isfinite(dm) and x - dm >= 0:
+            assert np.array_equal(mirrored.left[:, x], mirrored.right[:, int(x - dm)])
+            checked += 1
+    assert checked > 60
+    half = resized_scene(scene, "dy1+size0.5")
+    assert half.left.shape == half.right.shape == half.disparity.shape == (15, 40)
+    assert set(np.unique(half.disparity)) == {1.5, 3.5}
+    assert resized_scene(scene, "dy1") is scene
+    out = run_script("passes.py", "--perturb", "size0.5", "mirror")
+    assert_lines(out, r"## perturbation: size0\.5; params defaults",
+                 r"motorcycle \| [1-9]\d+ \| \d+ \| (0\.9\d\d|1\.000) \| .*",
+                 r"pooled: .* worst [\d.]+ \(motorcycle\)",
+                 r"## perturbation: mirror; params defaults",
+                 r"pooled: no scene \(mirror needs a scene with disparity_right\)")
