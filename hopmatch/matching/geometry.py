@@ -4,10 +4,9 @@ Bootstrap correspondences (OpenCV SIFT on a pyramid level of at most
 :data:`BOOTSTRAP_SIDE` pixels, or the matcher's own descriptors compared in a
 two-dimensional window when only keypoints are known), a robust fundamental matrix
 (``cv2.findFundamentalMat`` with ``cv2.USAC_MAGSAC``), guided rounds that match the SIFT
-keypoints again along its epipolar lines and fit F again (:data:`GUIDED_ROUNDS`), checks
+keypoints again along its epipolar lines and fit F again (:data:`BOOTSTRAP_ROUNDS`), checks
 that refuse an F the correspondences do not support (:class:`GeometryWarning`), a refit of
-F on the final
-matches, the similarity that lines up the rows of the two images
+F on the final matches, the similarity that lines up the rows of the two images
 (:func:`row_alignment`) and a row rectification close to the identity
 (:func:`rectifying_homographies`). ``F`` follows OpenCV's convention everywhere:
 ``[xr, yr, 1] @ F @ [xl, yl, 1] == 0``.
@@ -48,15 +47,17 @@ MIN_INLIERS = 30
 MIN_INLIER_RATIO = 0.25
 CHANCE_FACTOR = 2.0
 CHANCE_MARGIN = 10
-#: Guided rounds of the SIFT bootstrap: once an F is accepted, every SIFT keypoint of the
-#: left image is matched again among the right keypoints within GUIDED_BAND px (symmetric
+#: Guided rounds of the SIFT bootstrap (not the guided pass of
+#: :mod:`hopmatch.matching.guided`): once an F is accepted, every SIFT keypoint of the
+#: left image is matched again among the right keypoints within BOOTSTRAP_BAND px (symmetric
 #: epipolar distance, full-resolution pixels per pyramid level) of its epipolar line, with
 #: the ratio test among those only (and mutual), and F is fitted again on those matches;
-#: the refit is kept when it is accepted too. Unique look-alikes along the line are far more
-#: than unique look-alikes in the whole image (a repeated texture, a board's corners), and
-#: they reach the depths the first matches missed, which fix the epipole.
-GUIDED_ROUNDS = 2
-GUIDED_BAND = 8.0
+#: the refit is kept when it is accepted too. Along one epipolar line a keypoint has fewer
+#: look-alikes than in the whole image (a repeated texture, a board's corners), so more
+#: keypoints pass the ratio test there, some at depths the first matches missed, which
+#: constrain the epipole (docs/pipelines.md, "Guided bootstrap rounds").
+BOOTSTRAP_ROUNDS = 2
+BOOTSTRAP_BAND = 8.0
 #: The refit on the final matches: MAGSAC threshold (full-resolution pixels).
 REFIT_THRESHOLD = 1.0
 #: Points compared in the descriptor bootstrap, the half-height of its window (fraction of
@@ -325,8 +326,8 @@ def robust_fundamental(left, right, threshold: float = F_THRESHOLD, source: str 
 
 def estimate_geometry(left_gray, right_gray) -> EpipolarGeometry:
     """SIFT bootstrap correspondences of two grey images (:func:`sift_correspondences`),
-    then :func:`robust_fundamental`; once that accepts an F, :data:`GUIDED_ROUNDS` guided
-    rounds: the SIFT keypoints matched again within :data:`GUIDED_BAND` px (per pyramid
+    then :func:`robust_fundamental`; once that accepts an F, :data:`BOOTSTRAP_ROUNDS` guided
+    rounds: the SIFT keypoints matched again within :data:`BOOTSTRAP_BAND` px (per pyramid
     level) of each other's epipolar lines (:func:`epipolar_band`, :func:`ratio_pairs`) and F
     fitted on those matches (:func:`robust_fundamental`, which must accept it, else the F
     before is kept). The correspondences returned stay the unguided ones, with the inliers
@@ -342,9 +343,9 @@ def estimate_geometry(left_gray, right_gray) -> EpipolarGeometry:
     qi, ti = ratio_pairs(da, db, BOOTSTRAP_RATIO)
     geometry = robust_fundamental(pa[qi], pb[ti], threshold, "sift")
     F = geometry.fundamental
-    for _ in range(GUIDED_ROUNDS if F is not None else 0):
+    for _ in range(BOOTSTRAP_ROUNDS if F is not None else 0):
         gi, gt = ratio_pairs(da, db, BOOTSTRAP_RATIO,
-                             epipolar_band(F, pa, pb, GUIDED_BAND * 2 ** level))
+                             epipolar_band(F, pa, pb, BOOTSTRAP_BAND * 2 ** level))
         guided = robust_fundamental(pa[gi], pb[gt], threshold, "sift")
         if guided.fundamental is None:
             break
