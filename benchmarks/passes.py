@@ -46,7 +46,8 @@ well (its noise drawn with seed 1): the two views of one camera saved alike. ``l
 before ``dy``, ``dx``, ``rot`` or ``scale`` (``left-rot3``) moves the left view instead,
 its points mapped back before scoring too; before a grey-level change (``left-gain1.3``)
 it changes the left view instead (noise with seed 1). ``size0.6`` resizes the whole scene
-first (both views with ``cv2.INTER_AREA``, the ground truth to the same size with
+first (both views with ``cv2.INTER_AREA``, ``cv2.INTER_LINEAR`` when enlarging, the ground
+truth to the same size with
 ``cv2.INTER_NEAREST`` and its disparities times 0.6), so that it is scored at that size,
 as a data set shipped at that resolution would be: the held-out scenes come in sizes the
 shared ones do not (Middlebury 2003 at quarter size, 450 x 375...). ``mirror`` makes a
@@ -245,13 +246,16 @@ def resized_scene(scene, spec: str):
             f = float(part[4:])
             h, w = scene.left.shape[:2]
             size = (max(1, round(w * f)), max(1, round(h * f)))
-            def shrink(im):
+            def resize(im):
                 return cv2.resize(im, size, interpolation=cv2.INTER_AREA if f < 1
                                   else cv2.INTER_LINEAR)
             gt = cv2.resize(scene.disparity.astype(np.float32), size,
                             interpolation=cv2.INTER_NEAREST) * np.float32(size[0] / w)
-            return dataclasses.replace(scene, left=shrink(scene.left),
-                                       right=shrink(scene.right), disparity=gt)
+            # the other truths are not resized: none of them is left at the old size
+            return dataclasses.replace(scene, left=resize(scene.left),
+                                       right=resize(scene.right), disparity=gt,
+                                       disparity_right=None, disparity_all=None,
+                                       nonoccluded_mask=None)
     return scene
 
 
