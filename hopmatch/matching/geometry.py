@@ -415,12 +415,8 @@ def rectifying_homographies(F, left, right, size):
     epipolar line of ``F`` is a row, as close to the images' own coordinates as possible.
 
     ``cv2.stereoRectifyUncalibrated`` (on the correspondences ``left``, ``right``, ideally
-    inliers of F) gives one such pair; every map that keeps rows as rows may follow it: the
-    same ``y -> e y + f`` for both images, and for each image its own ``x -> a x + b y +
-    c``. They are fitted by least squares so that the rectified coordinates of ``left``
-    (and ``right``) stay closest to the given ones: the network's lengths then keep their
-    meaning in pixels. Each map is scaled so that its ``w`` is positive at the image's
-    centre. None when OpenCV finds no rectification."""
+    inliers of F) gives one such pair, which :func:`closest_row_maps` brings nearest the
+    images' coordinates. None when OpenCV finds no rectification."""
     pl = np.asarray(left, np.float64).reshape(-1, 2)
     pr = np.asarray(right, np.float64).reshape(-1, 2)
     try:
@@ -430,6 +426,18 @@ def rectifying_homographies(F, left, right, size):
     if not ok or H1 is None or H2 is None or not (np.isfinite(H1).all()
                                                    and np.isfinite(H2).all()):
         return None
+    return closest_row_maps(H1, H2, pl, pr, size)
+
+
+def closest_row_maps(H1, H2, left, right, size):
+    """``(H1', H2')``: the rectifying maps ``H1``, ``H2`` (rows of one frame) followed by the
+    maps that keep rows as rows and bring the rectified correspondences closest to the given
+    ones: the same ``y -> e y + f`` for both images, and for each image its own ``x -> a x
+    + b y + c``, fitted by least squares so that the rectified coordinates of ``left`` (and
+    ``right``) stay closest to the given ones (the network's lengths then keep their meaning
+    in pixels). Each map is scaled so that its ``w`` is positive at the image's centre."""
+    pl = np.asarray(left, np.float64).reshape(-1, 2)
+    pr = np.asarray(right, np.float64).reshape(-1, 2)
     ql = transform_points(pl, H1).astype(np.float64)
     qr = transform_points(pr, H2).astype(np.float64)
     ey, fy = np.linalg.lstsq(np.c_[ql[:, 1], np.ones(len(ql))], pl[:, 1], rcond=None)[0]
@@ -442,6 +450,135 @@ def rectifying_homographies(F, left, right, size):
         # (w < 0 at every point): the same map, scaled so that w > 0 at the image's centre
         out.append(-M if (M @ centre)[2] < 0 else M)
     return out[0], out[1]
+
+
+#: Quasi-Euclidean rectification (:func:`quasi_euclidean_homographies`): most
+#: Levenberg-Marquardt iterations, and the rounds that drop the correspondences beyond
+#: QUASI_EUCLIDEAN_TRIM x the median Sampson error before fitting again.
+QUASI_EUCLIDEAN_ITERATIONS = 100
+QUASI_EUCLIDEAN_ROUNDS = 2
+QUASI_EUCLIDEAN_TRIM = 4.0
+#: The focal length stays within 3**-QUASI_EUCLIDEAN_ZOOM to 3**QUASI_EUCLIDEAN_ZOOM times
+#: ``w + h`` (the 3**a of the parametrisation).
+QUASI_EUCLIDEAN_ZOOM = 2.0
+#: Weight (px per unit: per radian of each turn, per unit of the focal length's exponent)
+#: of the ridge that keeps the fit's parameters small (:func:`_levenberg_marquardt`).
+QUASI_EUCLIDEAN_RIDGE = 1e-3
+
+
+def _inverse_intrinsics(K) -> np.ndarray:
+    """The inverse of ``[[f, 0, cx], [0, f, cy], [0, 0, 1]]`` (f > 0), in closed form."""
+    f, cx, cy = K[0, 0], K[0, 2], K[1, 2]
+    return np.array([[1.0 / f, 0.0, -cx / f], [0.0, 1.0 / f, -cy / f], [0.0, 0.0, 1.0]])
+
+
+def _rotation(ax, ay, az) -> np.ndarray:
+    """``Rx(ax) @ Ry(ay) @ Rz(az)``."""
+    cx, sx, cy, sy, cz, sz = np.cos(ax), np.sin(ax), np.cos(ay), np.sin(ay), np.cos(az), np.sin(az)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+    ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    rz = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
+    return rx @ ry @ rz
+
+
+def _quasi_euclidean_maps(params, size):
+    """``(K, R_left, R_right)`` of the 6 parameters of :func:`quasi_euclidean_homographies`."""
+    w, h = float(size[0]), float(size[1])
+    f = (w + h) * 3.0 ** float(np.clip(params[0], -QUASI_EUCLIDEAN_ZOOM, QUASI_EUCLIDEAN_ZOOM))
+    K = np.array([[f, 0.0, (w - 1) / 2], [0.0, f, (h - 1) / 2], [0.0, 0.0, 1.0]])
+    return K, _rotation(0.0, params[1], params[2]), _rotation(*params[3:6])
+
+
+def _sampson(params, hl, hr, size) -> np.ndarray:
+    """Sampson distances of the correspondences (homogeneous rows ``hl``, ``hr``) to the
+    fundamental matrix of :func:`_quasi_euclidean_maps`."""
+    K, rl, rr = _quasi_euclidean_maps(params, size)
+    Ki = _inverse_intrinsics(K)
+    F = Ki.T @ rr.T @ np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]) @ rl @ Ki
+    fl = hl @ F.T
+    fr = hr @ F
+    num = np.einsum("ij,ij->i", hr, fl)
+    den = np.sqrt(fl[:, 0] ** 2 + fl[:, 1] ** 2 + fr[:, 0] ** 2 + fr[:, 1] ** 2)
+    return num / np.maximum(den, 1e-300)
+
+
+def quasi_euclidean_homographies(left, right, size):
+    """``(H1, H2)``: rectifying maps of two views that are rotations of cameras sharing
+    one unknown focal length and a centred principal point (``H = K R K^-1``, Fusiello and
+    Irsara's quasi-Euclidean rectification, 2008), fitted to the correspondences ``left``,
+    ``right`` (ideally inliers of an F) by Levenberg-Marquardt on their Sampson errors;
+    then brought nearest the images' coordinates (:func:`closest_row_maps`).
+
+    Six parameters: the focal length ``(w + h) 3**a``, the left camera's turn about its
+    vertical and optical axes, and the right camera's about all three (the left's about
+    its horizontal axis would turn both alike). Unlike a map chosen only to send the
+    epipole to infinity, a rotation moves the image as little as the geometry needs: a
+    verged or rolled rig is rectified by turning each view back. None for fewer than 8
+    correspondences or a fit that does not converge to finite maps."""
+    pl = np.asarray(left, np.float64).reshape(-1, 2)
+    pr = np.asarray(right, np.float64).reshape(-1, 2)
+    if len(pl) < 8:
+        return None
+    hl = np.c_[pl, np.ones(len(pl))]
+    hr = np.c_[pr, np.ones(len(pr))]
+    params = np.zeros(6)
+    keep = np.ones(len(pl), bool)
+    for _ in range(QUASI_EUCLIDEAN_ROUNDS):
+        params = _levenberg_marquardt(params, hl[keep], hr[keep], size)
+        err = np.abs(_sampson(params, hl, hr, size))
+        keep = err <= QUASI_EUCLIDEAN_TRIM * max(float(np.median(err)), 1e-6)
+        if keep.sum() < 8:
+            return None
+    K, rl, rr = _quasi_euclidean_maps(params, size)
+    Ki = _inverse_intrinsics(K)
+    H1, H2 = K @ rl @ Ki, K @ rr @ Ki
+    if not (np.isfinite(H1).all() and np.isfinite(H2).all()):
+        return None
+    return closest_row_maps(H1, H2, pl, pr, size)
+
+
+def _levenberg_marquardt(params, hl, hr, size) -> np.ndarray:
+    """``params`` moved by at most :data:`QUASI_EUCLIDEAN_ITERATIONS` Levenberg-Marquardt
+    steps on the sum of squared Sampson errors plus ``(QUASI_EUCLIDEAN_RIDGE params)**2``
+    (forward-difference Jacobian), the focal length's exponent kept within
+    +-:data:`QUASI_EUCLIDEAN_ZOOM`. The small ridge settles the near-trade between the
+    focal length and the turns, which the errors alone leave to drift (to a long focal
+    length and turns of 20 degrees that line the points up almost as well)."""
+
+    def residuals(p):
+        return np.r_[_sampson(p, hl, hr, size), QUASI_EUCLIDEAN_RIDGE * p]
+
+    lam = 1e-3
+    step = 1e-6
+    r = residuals(params)
+    cost = float(r @ r)
+    for _ in range(QUASI_EUCLIDEAN_ITERATIONS):
+        J = np.empty((len(r), len(params)))
+        for k in range(len(params)):
+            moved = params.copy()
+            moved[k] += step
+            J[:, k] = (residuals(moved) - r) / step
+        A = J.T @ J
+        g = J.T @ r
+        while True:
+            try:
+                delta = np.linalg.solve(A + lam * np.diag(np.diag(A) + 1e-12), -g)
+            except np.linalg.LinAlgError:
+                return params
+            trial = params + delta
+            trial[0] = np.clip(trial[0], -QUASI_EUCLIDEAN_ZOOM, QUASI_EUCLIDEAN_ZOOM)
+            rt = residuals(trial)
+            ct = float(rt @ rt)
+            if np.isfinite(ct) and ct < cost:
+                improved = cost - ct
+                params, r, cost, lam = trial, rt, ct, max(lam / 10.0, 1e-12)
+                break
+            lam *= 10.0
+            if lam > 1e12:
+                return params
+        if improved <= 1e-12 * max(cost, 1e-300):
+            break
+    return params
 
 
 def alignment_turn(geometry: EpipolarGeometry) -> tuple[float, float]:

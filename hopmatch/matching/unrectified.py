@@ -50,14 +50,16 @@ from .geometry import (
     alignment_turn,
     estimate_geometry,
     given_geometry,
+    quasi_euclidean_homographies,
     rectifying_homographies,
     refit_fundamental,
     row_alignment,
+    symmetric_epipolar_error,
     transform_points,
 )
 from .network import NetworkResult, PairInfo, match_pair, run_hopfield_network
 from .tone import ToneMap, rematch_through_map
-from .vertical import robust_fit
+from .vertical import robust_fit, row_plane_residual
 
 #: A range in the search frame: an extent widened on each side by this fraction of its
 #: span, plus 1 % of the width and 2 px ...
@@ -102,6 +104,18 @@ REFITS = True
 #: read the images along rows, do not follow).
 ROW_FACTOR = 1.5
 ROW_PIXELS = 0.5
+#: ... and the plane vertical model the network fits (``dy = a + b x + c y``, robustly) must
+#: leave the inliers within ROW_PLANE_FACTOR x F's epipolar error of them, or
+#: ROW_PLANE_PIXELS, at the 90th percentile, and bend from that plane by at most
+#: ROW_CURVE_PIXELS (:func:`rows_fit`): a verged rig's rows converge (keystone), which
+#: neither a similarity nor that plane takes out, though the median |dy| may stay small.
+#: The rows of a quasi-Euclidean rectification pass the same.
+ROW_PLANE_FACTOR = 1.5
+ROW_PLANE_PIXELS = 0.5
+ROW_CURVE_PIXELS = 0.6
+#: Where OpenCV's rectification moves the image too far, try the quasi-Euclidean one
+#: (:func:`rectification`).
+QUASI_EUCLIDEAN = True
 RECTIFY_LIMIT = 0.1
 SEARCH_ORDER = ("aligned", "rectified", "epipolar")
 #: ... and the aligned rows also need an offset that drifts by at most this many px with
@@ -240,6 +254,46 @@ def row_drift(points: np.ndarray, disparity: np.ndarray, dy: np.ndarray) -> floa
     return float(coef[3]) * float(hi - lo)
 
 
+def rows_fit(geometry, points: np.ndarray, dy: np.ndarray) -> bool:
+    """Whether rows offset by ``dy`` (``yl - yr`` of the inliers, left points ``points``,
+    in some frame) line the inliers up about as well as F does
+    (:func:`row_plane_residual`): their residual within :data:`ROW_PLANE_FACTOR` x the
+    90th percentile of F's symmetric epipolar error of the inliers, or
+    :data:`ROW_PLANE_PIXELS`, and their curve within :data:`ROW_CURVE_PIXELS`."""
+    epipolar = float(np.percentile(symmetric_epipolar_error(
+        geometry.fundamental, geometry.left_points[geometry.inliers],
+        geometry.right_points[geometry.inliers]), 90.0))
+    residual, curve = row_plane_residual(np.asarray(points, np.float64), dy)
+    return (residual <= max(ROW_PLANE_FACTOR * epipolar, ROW_PLANE_PIXELS)
+            and curve <= ROW_CURVE_PIXELS)
+
+
+def usable_rectification(H, size) -> bool:
+    """Whether the maps ``H`` (or None) rectify near the identity (:func:`near_identity`)
+    onto a canvas OpenCV can warp (:data:`WARP_LIMIT`)."""
+    return H is not None and near_identity(H, size) and max(canvas(H, size)[1]) < WARP_LIMIT
+
+
+def rectification(geometry, F, left, right, size):
+    """``(H1, H2)`` rectifying the inliers ``left`` and the aligned ``right`` (F relates
+    them), or None: OpenCV's (:func:`~hopmatch.matching.geometry.rectifying_homographies`)
+    when :func:`usable_rectification`, else, with :data:`QUASI_EUCLIDEAN`, the
+    quasi-Euclidean maps (:func:`~hopmatch.matching.geometry.quasi_euclidean_homographies`)
+    when usable and their rows fit the inliers (:func:`rows_fit`). OpenCV's choice sends
+    the epipole to infinity by a projective map that, for a nearly planar scene's ill-placed
+    epipole, moves the image far; the rotations of a verged rig move it little."""
+    H = rectifying_homographies(F, left, right, size)
+    if usable_rectification(H, size):
+        return H
+    if not QUASI_EUCLIDEAN:
+        return None
+    H = quasi_euclidean_homographies(left, right, size)
+    if not usable_rectification(H, size):
+        return None
+    rl, rr = transform_points(left, H[0]), transform_points(right, H[1])
+    return H if rows_fit(geometry, rl, rl[:, 1].astype(np.float64) - rr[:, 1]) else None
+
+
 def search_frame(geometry, to_aligned, size):
     """``(H1, H2, (lo, hi), mode)``: where the network searches (see :data:`SEARCH_ORDER`).
 
@@ -254,13 +308,10 @@ def search_frame(geometry, to_aligned, size):
         if mode == "rectified":
             to_right = np.linalg.inv(to_aligned)
             F = to_right.T @ geometry.fundamental
-            H = rectifying_homographies(F / np.linalg.norm(F), il, ia, size)
+            H = rectification(geometry, F / np.linalg.norm(F), il, ia, size)
             if H is None:
                 continue
             H1, H2 = H
-            if not (near_identity((H1, H2), size)
-                    and max(canvas((H1, H2), size)[1]) < WARP_LIMIT):
-                continue
             rl, ra = transform_points(il, H1), transform_points(ia, H2)
         elif mode == "aligned":
             dy = il[:, 1].astype(np.float64) - ia[:, 1]
@@ -270,6 +321,8 @@ def search_frame(geometry, to_aligned, size):
             if abs(row_drift(il.astype(np.float64), il[:, 0].astype(np.float64) - ia[:, 0],
                              dy)) > ROW_DRIFT:
                 drifting = True
+                continue
+            if not rows_fit(geometry, il, dy):
                 continue
             H1, H2, rl, ra = np.eye(3), np.eye(3), il, ia
         elif drifting:  # no rectification near the identity: the drifting rows still, as

@@ -129,6 +129,31 @@ def robust_fit(design: np.ndarray, values: np.ndarray, start: np.ndarray,
     return coef
 
 
+def row_plane_residual(points: np.ndarray, dy: np.ndarray) -> tuple[float, float]:
+    """``(residual, curve)``: how far rows that the network's vertical model follows leave
+    the correspondences at ``points`` whose rows differ by ``dy``. ``residual``: the 90th
+    percentile of ``|dy|`` less the plane ``a + b x + c y`` fitted to it robustly, as the
+    vertical model is (:func:`robust_fit`); ``curve``: the
+    90th percentile of the gap between that plane and the quadratic surface (``x y``,
+    ``x**2``, ``y**2`` terms too) fitted the same way, at the points: the part of the
+    offset that is structure (a verged rig's keystone), not noise. (0, 0) for fewer than
+    8 points."""
+    n = len(dy)
+    if n < 8:
+        return 0.0, 0.0
+    centred = points - points.mean(axis=0)
+    u, v = (centred / max(float(np.abs(centred).max()), 1e-9)).T
+    plane = np.c_[np.ones(n), u, v]
+    coef = robust_fit(plane, dy, np.array([float(np.median(dy)), 0.0, 0.0]))
+    if coef is None:
+        return 0.0, 0.0
+    quadratic = np.c_[plane, u * v, u * u, v * v]
+    coef_q = robust_fit(quadratic, dy, np.r_[coef, 0.0, 0.0, 0.0])
+    curve = 0.0 if coef_q is None else float(
+        np.percentile(np.abs(quadratic @ coef_q - plane @ coef), 90.0))
+    return float(np.percentile(np.abs(dy - plane @ coef), 90.0)), curve
+
+
 #: The row-offset prior (:func:`row_offset_prior`): left points sampled first, and at most
 #: (doubling while fewer than :data:`PLANE_MIN_MATCHES` clear look-alikes are found), the
 #: band searched around their rows (at least), the share of the sampled look-alikes the

@@ -17,6 +17,7 @@ from hopmatch.feature.padding import black_padding
 from hopmatch.matching import unrectified as u
 from hopmatch.matching.geometry import symmetric_epipolar_error, transform_points
 from hopmatch.matching.stereo_match import PASS_GUIDED
+from hopmatch.matching.vertical import row_plane_residual
 
 
 @pytest.fixture(scope="module")
@@ -61,6 +62,69 @@ def test_a_rectified_search_frame_is_bit_identical_in_threads(verged):
     for name in ("points_left", "points_right", "query_idx", "train_idx", "distances",
                  "passes", "fundamental_matrix"):
         np.testing.assert_array_equal(getattr(two, name), getattr(one, name), name)
+
+
+@pytest.fixture(scope="module")
+def verged_frame():
+    """The verged pair's estimated geometry, the similarity that aligns its rows, and the
+    inliers in that frame."""
+    from hopmatch.matching.geometry import estimate_geometry
+
+    left, right, _ = render_pair()
+    geometry = estimate_geometry(left, right)
+    to_aligned = u.aligned_frame(geometry, SIZE, SIZE)
+    inliers_l = geometry.left_points[geometry.inliers]
+    inliers_a = transform_points(geometry.right_points[geometry.inliers], to_aligned)
+    return geometry, to_aligned, inliers_l, inliers_a
+
+
+def test_aligned_rows_that_a_plane_cannot_follow_are_refused(verged_frame, monkeypatch):
+    """A verged rig's aligned rows converge (keystone): the plane vertical model leaves
+    the inliers far off where F fits them (rows_fit), and search_frame refuses the
+    aligned rows for that alone, even where the median |dy| would let them pass."""
+    geometry, to_aligned, il, ia = verged_frame
+    dy = il[:, 1].astype(np.float64) - ia[:, 1]
+    residual, curve = row_plane_residual(il.astype(np.float64), dy)
+    assert residual > 4 * u.ROW_PLANE_PIXELS and curve > 2 * u.ROW_CURVE_PIXELS
+    assert not u.rows_fit(geometry, il, dy)
+    monkeypatch.setattr(u, "ROW_PIXELS", 100.0)  # the median check lets anything pass
+    monkeypatch.setattr(u, "ROW_DRIFT", np.inf)
+    assert u.search_frame(geometry, to_aligned, SIZE)[3] == "rectified"
+    monkeypatch.setattr(u, "ROW_PLANE_PIXELS", np.inf)
+    monkeypatch.setattr(u, "ROW_CURVE_PIXELS", np.inf)
+    assert u.search_frame(geometry, to_aligned, SIZE)[3] == "aligned"
+
+
+def test_aligned_rows_of_a_turned_and_shifted_view_pass_the_plane_check():
+    """A rectified pair whose right view is turned, scaled and shifted: the similarity
+    lines the rows up, and the plane fits the inliers as well as F does."""
+    from hopmatch.matching.geometry import estimate_geometry
+
+    left, _, warped, _, _ = perturbed_box_pair(5.0, 30.0, 1.03)
+    geometry = estimate_geometry(left, warped)
+    to_aligned = u.aligned_frame(geometry, SIZE, SIZE)
+    il = geometry.left_points[geometry.inliers]
+    ia = transform_points(geometry.right_points[geometry.inliers], to_aligned)
+    dy = il[:, 1].astype(np.float64) - ia[:, 1]
+    assert u.rows_fit(geometry, il, dy)
+    assert u.search_frame(geometry, to_aligned, SIZE)[3] == "aligned"
+
+
+def test_a_rectification_opencv_cannot_give_is_quasi_euclidean(verged_frame, monkeypatch):
+    """Where OpenCV's rectifying maps are unusable (here: none at all), the rows of the
+    quasi-Euclidean maps are searched: within half a pixel of the inliers (the rig's two
+    cameras differ in focal length and principal point, which that model leaves out);
+    without QUASI_EUCLIDEAN the pair is not searched on rectified rows."""
+    geometry, to_aligned, il, ia = verged_frame
+    monkeypatch.setattr(u, "rectifying_homographies", lambda *args: None)
+    H1, H2, _, mode = u.search_frame(geometry, to_aligned, SIZE)
+    assert mode == "rectified"
+    rl, ra = transform_points(il, H1), transform_points(ia, H2)
+    rows = np.abs(rl[:, 1].astype(np.float64) - ra[:, 1])
+    assert np.percentile(rows, 90) <= 0.5
+    assert u.near_identity((H1, H2), SIZE)
+    monkeypatch.setattr(u, "QUASI_EUCLIDEAN", False)
+    assert u.search_frame(geometry, to_aligned, SIZE)[3] != "rectified"
 
 
 def test_the_rectified_canvas_maps_points_and_images_consistently():

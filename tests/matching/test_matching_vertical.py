@@ -225,3 +225,22 @@ def test_a_rotation_of_one_and_a_half_degrees_is_followed():
     assert res.refinement is not None
     truth = (np.c_[res.matched_left, np.ones(len(res.matched_left))] @ m.T)
     assert np.mean(np.abs(truth - res.matched_right).max(axis=1) <= 1.0) > 0.95
+
+
+def test_row_plane_residual_tells_a_keystone_from_noise():
+    """Rows offset by a plane plus noise: the plane leaves the noise and the quadratic
+    surface finds no structure beyond it; rows offset by a keystone (``k x y``, a verged
+    rig's): the plane leaves it and the quadratic surface takes it out (curve near its
+    90th percentile)."""
+    from hopmatch.matching.vertical import row_plane_residual
+
+    rng = np.random.default_rng(0)
+    pts = rng.uniform([0, 0], [640, 480], (600, 2))
+    u, v = (pts - pts.mean(axis=0)).T
+    noise = 0.3 * rng.standard_normal(600)
+    residual, curve = row_plane_residual(pts, 0.5 + 0.002 * u - 0.001 * v + noise)
+    assert 0.3 < residual < 0.7 and curve < 0.1
+    keystone = 3e-5 * u * v
+    residual, curve = row_plane_residual(pts, 0.5 + keystone)
+    assert residual > 1.2 and curve > 0.9 * np.percentile(np.abs(keystone), 90)
+    assert row_plane_residual(pts[:7], keystone[:7]) == (0.0, 0.0)
