@@ -24,8 +24,10 @@ truth fundamental]
   ``K R K^-1`` with a focal length of the image's width: a verged rig, whose rows no
   similarity aligns).
 - ``chessboards``: OpenCV's 13 chessboard pairs, raw and undistorted with their
-  calibration (intrinsics by ``cv2.calibrateCamera``, extrinsics by ``cv2.stereoCalibrate``
-  of the chessboard corners, as ``examples/stereo_calibration.py`` does); the share of
+  calibration (:func:`hopmatch.stereo.calibrate_from_corners` of the chessboard corners,
+  as ``examples/stereo_calibration.py`` does: intrinsics by ``cv2.calibrateCamera``,
+  extrinsics by ``cv2.stereoCalibrate``, in one OpenCV thread so that every process
+  undistorts the images alike); the share of
   matches within 1 px of the calibrated epipolar lines (points undistorted first), for
   ``match_stereo(..., rectified=False)`` and for the cv2 path
   (``HopfieldMatcher.estimateFundamentalMatrix`` then ``match``).
@@ -102,7 +104,7 @@ import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
 from hopmatch.evaluate import score_matches  # noqa: E402
 from hopmatch.matching.geometry import symmetric_epipolar_error  # noqa: E402
-from hopmatch.stereo import StereoCalibration, epipolar_distances  # noqa: E402
+from hopmatch.stereo import calibrate_from_corners, epipolar_distances  # noqa: E402
 
 #: (rotation in degrees, vertical shift in px, scale) of the right image: the extremes of
 #: the issue's range both ways, and the pair of its "where it stands" paragraph.
@@ -350,7 +352,8 @@ def board_corners(gray):
 
 
 def calibration(folder):
-    """StereoCalibration of the chessboard pairs in ``folder`` and their ids."""
+    """The stereo calibration of the chessboard pairs in ``folder``
+    (:func:`hopmatch.stereo.calibrate_from_corners`) and their ids."""
     ids = sorted(m.group(1) for p in folder.glob("left*.jpg")
                  if (m := re.fullmatch(r"left(\d+)\.jpg", p.name)))
     grid = np.zeros((PATTERN[0] * PATTERN[1], 3), np.float32)
@@ -366,11 +369,10 @@ def calibration(folder):
             rp.append(cr)
             used.append(i)
         size = gl.shape[::-1]
-    _, k1, d1, _, _ = cv2.calibrateCamera(obj, lp, size, None, None)
-    _, k2, d2, _, _ = cv2.calibrateCamera(obj, rp, size, None, None)
-    _, k1, d1, k2, d2, r, t, _, _ = cv2.stereoCalibrate(obj, lp, rp, k1, d1, k2, d2, size,
-                                                        flags=cv2.CALIB_FIX_INTRINSIC)
-    return StereoCalibration(k1, d1, k2, d2, r, t, image_size=size), used
+    # the library's calibration: OpenCV's calibrateCamera in several threads gives a
+    # slightly different calibration in each process, and then different undistorted images
+    cal, _ = calibrate_from_corners(obj, lp, rp, size)
+    return cal, used
 
 
 def undistorted_points(cal, left, right):
