@@ -511,10 +511,12 @@ def quasi_euclidean_homographies(left, right, size):
 
     Six parameters: the focal length ``(w + h) 3**a``, the left camera's turn about its
     vertical and optical axes, and the right camera's about all three (the left's about
-    its horizontal axis would turn both alike). Unlike a map chosen only to send the
-    epipole to infinity, a rotation moves the image as little as the geometry needs: a
-    verged or rolled rig is rectified by turning each view back. None for fewer than 8
-    correspondences or a fit that does not converge to finite maps."""
+    its horizontal axis is left out: turning both views about the baseline keeps the rows
+    rows, so only the right camera's turn relative to the left's can be fitted). Unlike a
+    map chosen only to send the epipole to infinity, a rotation moves the image as little
+    as the geometry needs: a verged or rolled rig is rectified by turning each view back.
+    None for fewer than 8 correspondences or a fit that does not converge to finite
+    maps."""
     pl = np.asarray(left, np.float64).reshape(-1, 2)
     pr = np.asarray(right, np.float64).reshape(-1, 2)
     if len(pl) < 8:

@@ -104,6 +104,8 @@ REFITS = True
 #: read the images along rows, do not follow).
 ROW_FACTOR = 1.5
 ROW_PIXELS = 0.5
+RECTIFY_LIMIT = 0.1
+SEARCH_ORDER = ("aligned", "rectified", "epipolar")
 #: ... and the plane vertical model the network fits (``dy = a + b x + c y``, robustly) must
 #: leave the inliers within ROW_PLANE_FACTOR x F's epipolar error of them, or
 #: ROW_PLANE_PIXELS, at the 90th percentile, and bend from that plane by at most
@@ -116,8 +118,6 @@ ROW_CURVE_PIXELS = 0.6
 #: Where OpenCV's rectification moves the image too far, try the quasi-Euclidean one
 #: (:func:`rectification`).
 QUASI_EUCLIDEAN = True
-RECTIFY_LIMIT = 0.1
-SEARCH_ORDER = ("aligned", "rectified", "epipolar")
 #: ... and the aligned rows also need an offset that drifts by at most this many px with
 #: the disparity across the inliers, beyond a plane in their position (:func:`row_drift`):
 #: when the left view is the one turned, or both are, ``dy`` grows with the disparity
