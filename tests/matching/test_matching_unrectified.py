@@ -2,8 +2,14 @@
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
+import textwrap
 import time
 import warnings
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -18,6 +24,8 @@ from hopmatch.matching import unrectified as u
 from hopmatch.matching.geometry import symmetric_epipolar_error, transform_points
 from hopmatch.matching.stereo_match import PASS_GUIDED
 from hopmatch.matching.vertical import row_plane_residual
+
+HERE = Path(__file__).resolve().parent  # unrect_scene.py's folder
 
 
 @pytest.fixture(scope="module")
@@ -62,6 +70,36 @@ def test_a_rectified_search_frame_is_bit_identical_in_threads(verged):
     for name in ("points_left", "points_right", "query_idx", "train_idx", "distances",
                  "passes", "fundamental_matrix"):
         np.testing.assert_array_equal(getattr(two, name), getattr(one, name), name)
+
+
+def _unrectified_signature(res) -> dict:
+    """What must not change between processes, as plain lists (floats round-trip JSON)."""
+    return {name: np.asarray(getattr(res, name)).tolist() for name in (
+        "points_left", "points_right", "query_idx", "train_idx", "distances", "passes",
+        "fundamental_matrix")} | {"search": res.geometry.search}
+
+
+def test_an_unrectified_pair_is_identical_in_separate_processes(verged):
+    """Determinism across processes for the unrectified path too: SIFT, MAGSAC, the
+    rectification and the warped canvas give the same matches and F in two fresh
+    processes (with different hash seeds) as here."""
+    code = textwrap.dedent("""
+        import json, sys
+        sys.path.insert(0, %r)
+        import hopmatch
+        from unrect_scene import render_pair
+        from test_matching_unrectified import _unrectified_signature
+        left, right, _ = render_pair()
+        res = hopmatch.match_stereo(left, right, rectified=False)
+        print(json.dumps(_unrectified_signature(res)))
+    """ % str(HERE))
+    here = json.loads(json.dumps(_unrectified_signature(verged[3])))
+    for hashseed in ("0", "4242"):
+        env = {**os.environ, "PYTHONHASHSEED": hashseed}
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              env=env, cwd=str(HERE), timeout=600)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        assert json.loads(proc.stdout.strip().splitlines()[-1]) == here, hashseed
 
 
 @pytest.fixture(scope="module")
