@@ -153,14 +153,25 @@ def to_uint8(gray: np.ndarray) -> np.ndarray:
     return cv2.convertScaleAbs(g, alpha=255.0 / (hi - lo), beta=-255.0 * lo / (hi - lo))
 
 
-def pyramid_level(gray: np.ndarray, max_side: int):
-    """``(image, level)``: ``gray`` reduced by ``cv2.pyrDown`` until its longer side is at
-    most ``max_side``; a point ``p`` of the reduced image is ``(p + 0.5) * 2**level - 0.5``
-    in ``gray``."""
+def bootstrap_level(shape, max_side: int) -> int:
+    """How many times :func:`pyramid_level` halves an image of ``shape`` ((H, W, ...)):
+    until its longer side is at most ``max_side`` (``cv2.pyrDown`` rounds up), or a side
+    is below 32."""
+    h, w = shape[:2]
     level = 0
-    while max(gray.shape[:2]) > max_side and min(gray.shape[:2]) >= 32:
-        gray = cv2.pyrDown(gray)
+    while max(h, w) > max_side and min(h, w) >= 32:
+        h, w = (h + 1) // 2, (w + 1) // 2
         level += 1
+    return level
+
+
+def pyramid_level(gray: np.ndarray, max_side: int):
+    """``(image, level)``: ``gray`` reduced by ``cv2.pyrDown`` :func:`bootstrap_level`
+    times; a point ``p`` of the reduced image is ``(p + 0.5) * 2**level - 0.5`` in
+    ``gray``."""
+    level = bootstrap_level(gray.shape, max_side)
+    for _ in range(level):
+        gray = cv2.pyrDown(gray)
     return gray, level
 
 

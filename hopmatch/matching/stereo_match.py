@@ -29,6 +29,7 @@ from .diagnostics import (
     still_few,
     warn_if_no_keypoints,
 )
+from .epipolar_support import support_notes, unsupported
 from .geometry import GeometryWarning, transform_points
 from .guided import guided_pass, guided_rounds
 from .guided_results import GreyFallback, GuidedMatches
@@ -590,6 +591,11 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
         tone_map=None if frame is None else frame.tone_map)
     if frame is not None and frame.mode != "epipolar" and len(net.query_idx):
         result = unrectified_beyond_network(result, frame)
+    if frame is not None and given is None:  # matches where F is extrapolated
+        drop = unsupported(frame.bootstrap, np.shape(frame.grays[0])[:2],
+                           result.matched_left, result.matched_right)
+        result = _dropping(result, drop, pts_r) if drop.any() else result
+        pending += [functools.partial(warn, m, GeometryWarning) for m in support_notes(drop)]
     give_or_defer(pending + [functools.partial(check, kept=len(result.query_idx))
                              for check in few_matches_check], warnings_later)
     return result
@@ -626,14 +632,19 @@ def unrectified_beyond_network(result: StereoMatchResult, frame) -> StereoMatchR
     h, w = frame.right_shape
     outside = ~((mapped[:, 0] >= 0) & (mapped[:, 0] <= w - 1) & (mapped[:, 1] >= 0)
                 & (mapped[:, 1] <= h - 1))
+    out = dataclasses.replace(out, points_left=pts_l, points_right=mapped)
     drop = outside[out.train_idx]
-    if drop.any():
-        query_idx, train_idx, mapped, passes, distances, gm, refinement = _without(
-            drop, out.query_idx, out.train_idx, mapped, pts_r, n, out.passes,
-            out.distances, out.guided, out.refinement)
-        k = 0 if gm is None else len(gm.query_idx)
-        out = dataclasses.replace(
-            out, query_idx=query_idx, train_idx=train_idx, passes=passes,
-            distances=distances, guided=gm, refinement=refinement,
-            responses_right=out.responses_right[:n + k])
-    return dataclasses.replace(out, points_left=pts_l, points_right=mapped)
+    return _dropping(out, drop, pts_r) if drop.any() else out
+
+
+def _dropping(result: StereoMatchResult, drop, detected) -> StereoMatchResult:
+    """``result`` less the matches where ``drop`` (:func:`_without`, of ``detected``)."""
+    n = len(detected)
+    query_idx, train_idx, points_right, passes, distances, gm, refinement = _without(
+        drop, result.query_idx, result.train_idx, result.points_right, detected, n,
+        result.passes, result.distances, result.guided, result.refinement)
+    k = 0 if gm is None else len(gm.query_idx)
+    return dataclasses.replace(
+        result, query_idx=query_idx, train_idx=train_idx, points_right=points_right,
+        passes=passes, distances=distances, guided=gm, refinement=refinement,
+        responses_right=result.responses_right[:n + k])

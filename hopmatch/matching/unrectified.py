@@ -389,6 +389,9 @@ class SearchFrame:
         (:func:`~hopmatch.matching.tone.tone_map`); when its second match was kept
         (``tone_map.used``), the right points, windows and images are those of the aligned
         right view mapped through it.
+    bootstrap : EpipolarGeometry or None
+        The geometry estimated from the bootstrap correspondences, before any refit on the
+        matches (its inliers judge where F holds: ``hopmatch.matching.epipolar_support``).
     """
 
     mode: str
@@ -402,6 +405,7 @@ class SearchFrame:
     maps: tuple | None = None
     sharpness: SharpnessMatch | None = None
     tone_map: ToneMap | None = None
+    bootstrap: EpipolarGeometry | None = None
 
 
 def match_unrectified(left, right, detector, config, *, mask_left=None, mask_right=None,
@@ -452,6 +456,7 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
         warped, valid, name="right", keep_gray=True)
     t4 = time.perf_counter()
     pts_r = transform_points(pts_a, np.linalg.inv(to_aligned))
+    bootstrap = geometry
     for round_ in range(PASSES):
         pending = None if few_matches_later is None else []  # the last network's only
         net, mode, shift, maps = search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r,
@@ -487,7 +492,7 @@ def match_unrectified(left, right, detector, config, *, mask_left=None, mask_rig
                         grays=(gray_l, gray_r), gradients=(g_l, g_r),
                         descriptors=(desc_l, desc_r), maps=maps,
                         right_shape=tuple(right_gray.shape[:2]), sharpness=sharpness,
-                        tone_map=tone)
+                        tone_map=tone, bootstrap=bootstrap)
     return pts_l, resp_l, pts_r, resp_r, net, geometry, timings, frame
 
 
