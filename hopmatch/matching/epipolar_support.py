@@ -65,12 +65,12 @@ def epipolar_spread(inliers_left, inliers_right, left, right,
 
 def unsupported(geometry: EpipolarGeometry, image_shape, left, right) -> np.ndarray:
     """(N,) bool: the matches ``left[i] <-> right[i]`` (full-resolution pixels of images
-    of ``image_shape``, (H, W)) that the bootstrap inliers of ``geometry`` do not vouch
-    for: their :func:`epipolar_spread` exceeds :data:`SUPPORT_LIMIT` x 2**level, level the
-    pyramid level of the bootstrap (:func:`~hopmatch.matching.geometry.bootstrap_level`,
-    longer side at most :data:`~hopmatch.matching.geometry.BOOTSTRAP_SIDE`), or is NaN.
-    None is marked when ``geometry`` has fewer than :data:`SUPPORT_MIN_INLIERS` inliers or
-    no F."""
+    of ``image_shape``, (H, W) or (H, W, C)) that the bootstrap inliers of ``geometry``
+    do not vouch for: their :func:`epipolar_spread` exceeds :data:`SUPPORT_LIMIT` x
+    2**level, level the pyramid level of the bootstrap
+    (:func:`~hopmatch.matching.geometry.bootstrap_level`, longer side at most
+    :data:`~hopmatch.matching.geometry.BOOTSTRAP_SIDE`), or is NaN. None is marked when
+    ``geometry`` has fewer than :data:`SUPPORT_MIN_INLIERS` inliers or no F."""
     n = len(left)
     if geometry.fundamental is None or geometry.n_inliers < SUPPORT_MIN_INLIERS or n == 0:
         return np.zeros(n, bool)

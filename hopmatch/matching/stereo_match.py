@@ -122,12 +122,13 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         False for a pair whose geometry is unknown (two photos): the epipolar geometry and
         the disparity range are estimated from the pair itself, the right image is
         aligned with the left one and the network searches the epipolar band
-        (``hopmatch.matching.unrectified``; docs/pipelines.md). The result then carries
-        ``fundamental_matrix`` and ``geometry``; when the pair supports no geometry (no
-        texture, unrelated images) it is empty and a
-        :class:`~hopmatch.errors.GeometryWarning` says why. Cannot be combined
-        with ``fundamental_matrix`` or a disparity range (it finds its own). Unless given
-        (as a keyword), ``vertical_threshold`` is then
+        (``hopmatch.matching.unrectified``; docs/pipelines.md); matches where the
+        estimate is extrapolated are dropped (``hopmatch.matching.epipolar_support``).
+        The result carries ``fundamental_matrix`` and ``geometry``; when the pair
+        supports no geometry (no texture, unrelated images) it is empty and a
+        :class:`~hopmatch.errors.GeometryWarning` says why. Cannot be combined with
+        ``fundamental_matrix`` or a disparity range (it finds its own). Unless given (as
+        a keyword), ``vertical_threshold`` is then
         :data:`~hopmatch.matching.unrectified.UNRECTIFIED_VERTICAL`.
     record_energy : bool
         Keep the network energy after every iteration (``result.network.energy_trace``).
@@ -592,8 +593,8 @@ def _match_unrectified(left, right, detector, config, fundamental, mask_left, ma
     if frame is not None and frame.mode != "epipolar" and len(net.query_idx):
         result = unrectified_beyond_network(result, frame)
     if frame is not None and given is None:  # matches where F is extrapolated
-        drop = unsupported(frame.bootstrap, np.shape(frame.grays[0])[:2],
-                           result.matched_left, result.matched_right)
+        m_l, m_r = result.matched_left, result.matched_right
+        drop = unsupported(frame.bootstrap, np.shape(left), m_l, m_r)
         result = _dropping(result, drop, pts_r) if drop.any() else result
         pending += [functools.partial(warn, m, GeometryWarning) for m in support_notes(drop)]
     give_or_defer(pending + [functools.partial(check, kept=len(result.query_idx))
@@ -643,8 +644,7 @@ def _dropping(result: StereoMatchResult, drop, detected) -> StereoMatchResult:
     query_idx, train_idx, points_right, passes, distances, gm, refinement = _without(
         drop, result.query_idx, result.train_idx, result.points_right, detected, n,
         result.passes, result.distances, result.guided, result.refinement)
-    k = 0 if gm is None else len(gm.query_idx)
-    return dataclasses.replace(
+    return dataclasses.replace(  # the detected right points and the guided ones kept
         result, query_idx=query_idx, train_idx=train_idx, points_right=points_right,
         passes=passes, distances=distances, guided=gm, refinement=refinement,
-        responses_right=result.responses_right[:n + k])
+        responses_right=result.responses_right[:len(points_right)])
