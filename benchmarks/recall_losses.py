@@ -41,6 +41,16 @@ local plane of its matched neighbours) is replaced by the ground truth there
 (:func:`passes.bilinear_gt`, where known), in every pass; what is then lost is lost to
 the tests, not to the prediction.
 
+``--continuity-support`` adds what the continuity test (the field, eq. 12) refuses: every
+guided candidate the field left at or below 0 (a peak found, the field against it) whose
+left point ends unmatched and has ground truth, with whether its disparity was right
+(within 1 px of :func:`passes.bilinear_gt`), pooled over the scenes; then the precision
+those candidates would have if a candidate were accepted on the support of its own surface
+alone: the *group* being its matched neighbours (those the field counted, carried along
+the local plane as the field does) whose disparity lies within 1 px of the candidate's,
+accepted when the group has at least k members and at least a share f of the neighbours
+(on the pair as shipped, whatever ``--perturb`` says).
+
 ``--guided`` sets module constants of :mod:`hopmatch.matching.guided` first, as in
 ``passes.py``. ``--perturb SPEC`` changes hopmatch's right image as ``passes.py
 --perturb`` does (``vig0.4``, ``gain0.6``, ``rot0.3+dy1.5``...; SGBM still runs on the
@@ -57,6 +67,7 @@ import dataclasses
 import json
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -65,6 +76,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import add_smoke_option, single_thread, smoke_crop  # noqa: E402
 from passes import bilinear_gt, perturb, unmap  # noqa: E402
 
+import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
 from hopmatch.compare import METHODS  # noqa: E402
 from hopmatch.evaluate import correct_matches, score_matches  # noqa: E402
@@ -248,6 +260,72 @@ def oracle_prediction(disparity):
         guided.neighbour_planes = planes
 
 
+@contextlib.contextmanager
+def refused_by_continuity(records: list):
+    """Within the block, every call of the guided pass's field
+    (``guided.continuity_fields``) appends to ``records`` one ``(left points, disparity,
+    field, group, neighbours)`` tuple of arrays over the candidates it was given (those
+    whose peak was found): the group being the neighbours whose disparity, carried along
+    the call's gradient to the candidate, lies within 1 px of the candidate's."""
+    fields = guided.continuity_fields
+
+    def recorded(pts_q, xr, yr, sim_q, offsets, idx, rows, m_left, m_right, m_sim, theta,
+                 slope, weight, bias, gx, gy, threads=None):
+        u = fields(pts_q, xr, yr, sim_q, offsets, idx, rows, m_left, m_right, m_sim, theta,
+                   slope, weight, bias, gx, gy, threads=threads)
+        k = np.flatnonzero(np.isfinite(xr))
+        d_q = pts_q[k, 0].astype(np.float64) - xr[k]
+        group, size = np.zeros(len(k)), np.zeros(len(k))
+        for t, q in enumerate(k):
+            j = idx[offsets[rows[q]]:offsets[rows[q] + 1]]
+            xj, yj = m_left[j, 0].astype(np.float64), m_left[j, 1].astype(np.float64)
+            d_j = xj - m_right[j, 0] + gx[q] * (pts_q[q, 0] - xj) + gy[q] * (pts_q[q, 1] - yj)
+            size[t], group[t] = len(j), np.count_nonzero(np.abs(d_j - d_q[t]) <= 1.0)
+        records.append((pts_q[k].copy(), d_q, u[k], group, size))
+        return u
+
+    guided.continuity_fields = recorded
+    try:
+        yield
+    finally:
+        guided.continuity_fields = fields
+
+
+def continuity_candidates(scene) -> np.ndarray:
+    """``(group, neighbours, right)`` rows (float) of the candidates the field refused on
+    ``scene`` (``--continuity-support``), each left point once (its first refusal)."""
+    records = []
+    with refused_by_continuity(records), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = hopmatch.match_stereo(scene.left, scene.right)
+    matched = {(float(x), float(y)) for x, y in res.matched_left}
+    seen, rows = set(), []
+    for pts, d_q, u, group, size in records:
+        truth = bilinear_gt(pts, scene.disparity)
+        for i in np.flatnonzero((u <= 0.0) & np.isfinite(truth)):
+            key = (float(pts[i, 0]), float(pts[i, 1]))
+            if key in matched or key in seen:
+                continue
+            seen.add(key)
+            rows.append((group[i], size[i], float(abs(d_q[i] - truth[i]) <= 1.0)))
+    return np.array(rows, dtype=np.float64).reshape(-1, 3)
+
+
+def print_continuity_support(candidates: np.ndarray) -> None:
+    group, size, right = candidates.T
+    print(f"\n## continuity: {len(right)} candidates the field refused (left point never "
+          f"matched, with ground truth), {int(right.sum())} of them right "
+          f"({right.mean() if len(right) else float('nan'):.3f})")
+    print("accepted on its own surface's support: group >= k | and >= f of the neighbours | "
+          "candidates | right | precision")
+    for f in (0.3, 0.5, 0.7):
+        for k in (3, 5, 8):
+            sel = (group >= k) & (group >= f * size)
+            n = int(sel.sum())
+            print(f"{k} | {f:g} | {n} | {int(right[sel].sum())} | "
+                  f"{right[sel].mean() if n else float('nan'):.3f}")
+
+
 def print_row(label, cells):
     print(f"{label} | " + " | ".join(str(c) for c in cells), flush=True)
 
@@ -260,6 +338,9 @@ def main(argv=None) -> int:
                     help="constants of hopmatch.matching.guided to set (JSON object)")
     ap.add_argument("--oracle-prediction", action="store_true",
                     help="the guided rounds predict the ground truth (an upper bound)")
+    ap.add_argument("--continuity-support", action="store_true",
+                    help="also: how right the candidates the field refuses are, and on "
+                    "their own surface's support alone")
     args = add_smoke_option(ap).parse_args(argv)
     single_thread()
     for name, value in json.loads(args.guided).items():
@@ -267,7 +348,7 @@ def main(argv=None) -> int:
             raise SystemExit(f"--guided: hopmatch.matching.guided has no constant {name!r}")
         setattr(guided, name, value)
     names = ["motorcycle"] if args.smoke else (args.scenes or datasets.list_scenes())
-    rows = []
+    rows, refused = [], []
     for n in names:
         scene = datasets.load(n)
         if args.smoke:
@@ -277,6 +358,8 @@ def main(argv=None) -> int:
         with (oracle_prediction(scene.disparity) if args.oracle_prediction
               else contextlib.nullcontext()):
             rows.append((n, scene_losses(scene, args.perturb)))
+            if args.continuity_support:
+                refused.append(continuity_candidates(scene))
     print("## network: where the lost points (SGBM right, hopmatch unmatched) were lost")
     print("scene | with gt | SGBM correct | hopmatch correct | lost | wrong | "
           + " | ".join(NETWORK_COLUMNS))
@@ -299,6 +382,8 @@ def main(argv=None) -> int:
     print(f"\nhopmatch: {correct} correct of {scored} scored matches, precision "
           f"{correct / max(scored, 1):.4f}")
     print(f"{sum(r[1][-1] for r in rows):.1f} s")
+    if args.continuity_support:
+        print_continuity_support(np.concatenate(refused))
     return 0
 
 

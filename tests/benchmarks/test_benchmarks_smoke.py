@@ -468,6 +468,24 @@ def test_recall_losses_oracle_prediction_predicts_the_truth():
     assert plain >= 10 and oracle <= plain // 4, (plain, oracle)
 
 
+def test_recall_losses_continuity_support_counts_subsets():
+    """``--continuity-support`` (docs/parameters.md quotes it): the refused candidates, then
+    each rule's: a subset of them (fewer for a larger group, right ones among them)."""
+    lines = run_script("recall_losses.py", "--continuity-support").splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith("## continuity: "))
+    total, right = map(int, re.fullmatch(
+        r"## continuity: (\d+) candidates the field refused \(left point never matched, "
+        r"with ground truth\), (\d+) of them right \([\d.]+\)", lines[head]).groups())
+    assert 0 < right <= total
+    rules = [row.split(" | ") for row in lines[head + 2:head + 11]]
+    assert [(r[0], r[1]) for r in rules] == [(k, f) for f in ("0.3", "0.5", "0.7")
+                                             for k in ("3", "5", "8")]
+    for f in range(3):
+        counts = [int(r[2]) for r in rules[3 * f:3 * f + 3]]
+        assert counts == sorted(counts, reverse=True) and counts[0] <= total, counts
+    assert all(int(r[3]) <= int(r[2]) for r in rules)
+
+
 def test_recall_losses_perturbed_maps_the_right_points_back():
     """``--perturb dy3``: SGBM still scores the unperturbed pair (same SGBM-correct count),
     and hopmatch's matches in the shifted right image are mapped back before scoring (not
