@@ -8,8 +8,16 @@ inside and outside those functions, the threaded share, and the two-thread bound
 ``T1 / (serial + split)``, ``split`` being each region's time halved where it has at least
 two chunks (``2 * MIN_CHUNK`` items; ``run_both``: the longer of its two calls). Then the
 serial CPU time by function (cProfile with ``process_time``, disabled inside the thread
-helpers' functions): the stages still on one thread, own ms per pair. ``--smoke``: on a
-240 x 160 crop, 2 pairs (figures meaningless).
+helpers' functions): the stages still on one thread, own ms per pair. Last, where a second
+thread's time goes: the same pairs matched with ``threads=1`` and ``threads=2`` in
+alternation, each call of a helper timed in wall time by the function that called it (the
+outermost call only), per pair: its ms at one and two threads and their ratio, and the wall
+time outside the helpers at each count; and what the machine allows: the first stage of the
+refinement's kernel (``refine_rows``, on the pair's matches) run once, and two copies of the
+same call at once in two threads (best of ``--pairs`` runs each): their efficiency is
+the one-copy time over the two-copy time, 1 when two threads run two kernels as fast as one
+runs one (a machine whose cores share caches, memory bandwidth or a clock that drops with
+load gives less). ``--smoke``: on a 240 x 160 crop, 2 pairs (figures meaningless).
 """
 
 from __future__ import annotations
@@ -17,16 +25,19 @@ from __future__ import annotations
 import argparse
 import cProfile
 import sys
+import threading
 import time
 from pathlib import Path
 
 import cv2
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import add_smoke_option, motorcycle_bgr, profile_rows, single_thread  # noqa: E402
 
 import hopmatch  # noqa: E402
 from hopmatch import _threads  # noqa: E402
+from hopmatch._kernels.refine import refine_rows  # noqa: E402
 
 
 class Regions:
@@ -81,14 +92,119 @@ class Regions:
         self.split += t / 2 if n // _threads.MIN_CHUNK >= 2 else t
 
 
-def patch(regions: Regions) -> None:
-    """Replace the helpers in every hopmatch module that imported them."""
+class Sites:
+    """Wrappers of the thread helpers that keep the caller's thread count and time each
+    outermost call in wall time, by the function that called the helper."""
+
+    def __init__(self):
+        self.depth = 0
+        self.threads = 1  # the count of the pair being matched
+        self.wall = {}  # (threads, site) -> seconds
+
+    def timed(self, helper):
+        def run(*args, **kwargs):
+            if self.depth:
+                return helper(*args, **kwargs)
+            caller = sys._getframe(1).f_code
+            site = f"{Path(caller.co_filename).name}:{caller.co_name}"
+            self.depth += 1
+            t0 = time.perf_counter()
+            try:
+                return helper(*args, **kwargs)
+            finally:
+                key = (self.threads, site)
+                self.wall[key] = self.wall.get(key, 0.0) + time.perf_counter() - t0
+                self.depth -= 1
+        return run
+
+
+HELPERS = ("map_chunks", "map_ranges", "run_both")
+
+
+def patch(replacement) -> dict:
+    """Replace the helpers in every hopmatch module that imported them by
+    ``replacement(name)``; returns what was replaced, for :func:`unpatch`."""
+    replaced = {}
     for name, module in list(sys.modules.items()):
         if not name.startswith("hopmatch") or module is _threads:
             continue
-        for helper in ("map_chunks", "map_ranges", "run_both"):
+        for helper in HELPERS:
             if getattr(module, helper, None) is getattr(_threads, helper):
-                setattr(module, helper, getattr(regions, helper))
+                replaced[name, helper] = getattr(_threads, helper)
+                setattr(module, helper, replacement(helper))
+    return replaced
+
+
+def unpatch(replaced: dict) -> None:
+    """Put back what :func:`patch` replaced."""
+    for (name, helper), original in replaced.items():
+        setattr(sys.modules[name], helper, original)
+
+
+def two_thread_regions(gl, gr, pairs: int) -> None:
+    """The last table of the module's docstring."""
+    sites = Sites()
+    replaced = patch(lambda helper: sites.timed(getattr(_threads, helper)))
+    total = {1: 0.0, 2: 0.0}
+    for _ in range(pairs):
+        for threads in (1, 2):
+            sites.threads = threads
+            t0 = time.perf_counter()
+            hopmatch.match_stereo(gl, gr, threads=threads)
+            total[threads] += time.perf_counter() - t0
+    unpatch(replaced)
+    names = sorted({site for _, site in sites.wall},
+                   key=lambda site: -sites.wall.get((1, site), 0.0))
+    print("Where a second thread's time goes (wall time, threads=1 and threads=2 in "
+          "alternation, by the function that called the helper):\n")
+    print("| called from | ms, 1 thread | ms, 2 threads | speed-up |")
+    print("|---|---:|---:|---:|")
+    inside = {1: 0.0, 2: 0.0}
+    for site in names:
+        one, two = (sites.wall.get((t, site), 0.0) / pairs for t in (1, 2))
+        inside[1] += one
+        inside[2] += two
+        print(f"| `{site}` | {one * 1e3:.2f} | {two * 1e3:.2f} | "
+              f"{one / two if two else float('nan'):.2f}x |")
+    print(f"| all the helpers | {inside[1] * 1e3:.1f} | {inside[2] * 1e3:.1f} | "
+          f"{inside[1] / inside[2]:.2f}x |")
+    outside = {t: total[t] / pairs - inside[t] for t in (1, 2)}
+    print(f"| outside them | {outside[1] * 1e3:.1f} | {outside[2] * 1e3:.1f} | "
+          f"{outside[1] / outside[2]:.2f}x |")
+    print(f"| match_stereo | {total[1] / pairs * 1e3:.1f} | {total[2] / pairs * 1e3:.1f} | "
+          f"{total[1] / total[2]:.2f}x |")
+
+
+def concurrent_copies(gl, gr, runs: int) -> None:
+    """The machine's own two-thread efficiency (the module's docstring, last)."""
+    res = hopmatch.match_stereo(gl, gr, threads=1)
+    left = np.ascontiguousarray(res.matched_left, dtype=np.float64)
+    xr = np.ascontiguousarray(res.matched_right[:, 0], dtype=np.float64)
+    yr = np.ascontiguousarray(res.matched_right[:, 1], dtype=np.float64)
+    flat = np.zeros(len(xr))
+    img_l = np.ascontiguousarray(gl, dtype=np.float32)
+    img_r = np.ascontiguousarray(gr, dtype=np.float32)
+
+    def call():
+        refine_rows(img_l, img_r, left, xr, yr, flat, flat, 3, 3, 0.0, False, 0.5, 2, 16, 0.02,
+                    1.5)
+
+    call()
+    one = two = float("inf")
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        call()
+        one = min(one, time.perf_counter() - t0)
+        pair = [threading.Thread(target=call) for _ in range(2)]
+        t0 = time.perf_counter()
+        for t in pair:
+            t.start()
+        for t in pair:
+            t.join()
+        two = min(two, time.perf_counter() - t0)
+    print(f"\nTwo copies of one kernel at once (refine_rows, {len(xr)} matches, best of {runs}): "
+          f"one copy {one * 1e3:.1f} ms, two copies in two threads {two * 1e3:.1f} ms, "
+          f"efficiency {one / two:.2f}")
 
 
 def main(argv=None) -> None:
@@ -103,7 +219,7 @@ def main(argv=None) -> None:
     gr = cv2.cvtColor(right, cv2.COLOR_BGR2GRAY)
     hopmatch.match_stereo(gl, gr, threads=1)
     regions = Regions()
-    patch(regions)
+    replaced = patch(lambda helper: getattr(regions, helper))
     t0 = time.process_time()
     for _ in range(pairs):
         hopmatch.match_stereo(gl, gr, threads=1)
@@ -134,6 +250,10 @@ def main(argv=None) -> None:
     print("|---|---:|")
     for where, own in top:
         print(f"| `{where}` | {own * 1e3:.2f} |")
+    unpatch(replaced)
+    print()
+    two_thread_regions(gl, gr, pairs)
+    concurrent_copies(gl, gr, pairs)
 
 
 if __name__ == "__main__":

@@ -232,13 +232,19 @@ def test_compile_times_smoke():
 
 def test_threaded_share_smoke():
     """The threaded share and Amdahl's bound issue 17's note quotes
-    (benchmarks/threaded_share.py), and its serial profile table."""
+    (benchmarks/threaded_share.py), its serial profile table, the helpers' wall time at one
+    and two threads and the two concurrent copies of one kernel."""
     out = run_script("threaded_share.py")
     assert_lines(
         out,
         r"\| total, threads=1 \| [\d.]+ \|",
         r"Threaded share [\d.]+%; Amdahl's bound for 2 threads [\d.]+x .*",
         r"\| function \| own ms per pair \|",
+        r"\| `guided_kernels.py:row_searches` \| [\d.]+ \| [\d.]+ \| [\d.]+x \|",
+        r"\| outside them \| [\d.]+ \| [\d.]+ \| [\d.]+x \|",
+        r"\| match_stereo \| [\d.]+ \| [\d.]+ \| [\d.]+x \|",
+        r"Two copies of one kernel at once \(refine_rows, \d+ matches, best of \d+\): one copy "
+        r"[\d.]+ ms, two copies in two threads [\d.]+ ms, efficiency [\d.]+",
     )
 
 
