@@ -20,7 +20,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 DOC = HERE.parent / "docs" / "performance.md"
-SCRIPTS = [["end_to_end.py", "--profile"], ["detector.py"], ["scale.py"], ["first_call.py"]]
+SCRIPTS = [["end_to_end.py", "--profile"], ["detector.py"], ["scale.py"], ["first_call.py"],
+           ["threaded_share.py"]]
 
 sys.path.insert(0, str(HERE))
 from _common import add_smoke_option  # noqa: E402

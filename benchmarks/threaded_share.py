@@ -11,13 +11,14 @@ serial CPU time by function (cProfile with ``process_time``, disabled inside the
 helpers' functions): the stages still on one thread, own ms per pair. Last, where a second
 thread's time goes: the same pairs matched with ``threads=1`` and ``threads=2`` in
 alternation, each call of a helper timed in wall time by the function that called it (the
-outermost call only), per pair: its ms at one and two threads and their ratio, and the wall
-time outside the helpers at each count; and what the machine allows: the first stage of the
-refinement's kernel (``refine_rows``, on the pair's matches) run once, and two copies of the
-same call at once in two threads (best of ``--pairs`` runs each): their efficiency is
-the one-copy time over the two-copy time, 1 when two threads run two kernels as fast as one
-runs one (a machine whose cores share caches, memory bandwidth or a clock that drops with
-load gives less). ``--smoke``: on a 240 x 160 crop, 2 pairs (figures meaningless).
+outermost call only): its ms per pair at one and two threads (medians over the pairs) and
+their ratio, and the same of the time outside the helpers and of the whole call; and what
+the machine allows: the first stage of the refinement's kernel (``refine_rows``, on the
+pair's matches) run once, and two copies of the same call at once in two threads (best of
+``--pairs`` runs each): their efficiency is the one-copy time over the two-copy time, 1
+when two threads run two kernels as fast as one runs one (a machine whose cores share
+caches, memory bandwidth or a clock that drops with load gives less). ``--smoke``: on a
+240 x 160 crop, 2 pairs (figures meaningless).
 """
 
 from __future__ import annotations
@@ -98,8 +99,7 @@ class Sites:
 
     def __init__(self):
         self.depth = 0
-        self.threads = 1  # the count of the pair being matched
-        self.wall = {}  # (threads, site) -> seconds
+        self.wall = {}  # site -> seconds, in the pair being matched
 
     def timed(self, helper):
         def run(*args, **kwargs):
@@ -112,8 +112,7 @@ class Sites:
             try:
                 return helper(*args, **kwargs)
             finally:
-                key = (self.threads, site)
-                self.wall[key] = self.wall.get(key, 0.0) + time.perf_counter() - t0
+                self.wall[site] = self.wall.get(site, 0.0) + time.perf_counter() - t0
                 self.depth -= 1
         return run
 
@@ -142,37 +141,37 @@ def unpatch(replaced: dict) -> None:
 
 
 def two_thread_regions(gl, gr, pairs: int) -> None:
-    """The last table of the module's docstring."""
+    """The table of the module's docstring (medians over the pairs: a 2-core virtual
+    machine's slow outliers hit the two-thread runs harder, and would decide the means)."""
     sites = Sites()
     replaced = patch(lambda helper: sites.timed(getattr(_threads, helper)))
-    total = {1: 0.0, 2: 0.0}
+    runs = {1: [], 2: []}  # per pair: (match_stereo's seconds, {site: seconds})
     for _ in range(pairs):
         for threads in (1, 2):
-            sites.threads = threads
+            sites.wall = {}
             t0 = time.perf_counter()
             hopmatch.match_stereo(gl, gr, threads=threads)
-            total[threads] += time.perf_counter() - t0
+            runs[threads].append((time.perf_counter() - t0, sites.wall))
     unpatch(replaced)
-    names = sorted({site for _, site in sites.wall},
-                   key=lambda site: -sites.wall.get((1, site), 0.0))
+
+    def median(threads, of) -> float:
+        return float(np.median([of(total, wall) for total, wall in runs[threads]])) * 1e3
+
+    names = sorted({site for t in runs for _, wall in runs[t] for site in wall},
+                   key=lambda site: -median(1, lambda _, wall: wall.get(site, 0.0)))
     print("Where a second thread's time goes (wall time, threads=1 and threads=2 in "
-          "alternation, by the function that called the helper):\n")
+          "alternation, by the function that called the helper; ms per pair, the median "
+          f"of {pairs} pairs):\n")
     print("| called from | ms, 1 thread | ms, 2 threads | speed-up |")
     print("|---|---:|---:|---:|")
-    inside = {1: 0.0, 2: 0.0}
-    for site in names:
-        one, two = (sites.wall.get((t, site), 0.0) / pairs for t in (1, 2))
-        inside[1] += one
-        inside[2] += two
-        print(f"| `{site}` | {one * 1e3:.2f} | {two * 1e3:.2f} | "
+    rows = [(f"`{site}`", lambda _, wall, site=site: wall.get(site, 0.0)) for site in names]
+    rows += [("all the helpers", lambda _, wall: sum(wall.values())),
+             ("outside them", lambda total, wall: total - sum(wall.values())),
+             ("match_stereo", lambda total, _: total)]
+    for label, of in rows:
+        one, two = median(1, of), median(2, of)
+        print(f"| {label} | {one:.2f} | {two:.2f} | "
               f"{one / two if two else float('nan'):.2f}x |")
-    print(f"| all the helpers | {inside[1] * 1e3:.1f} | {inside[2] * 1e3:.1f} | "
-          f"{inside[1] / inside[2]:.2f}x |")
-    outside = {t: total[t] / pairs - inside[t] for t in (1, 2)}
-    print(f"| outside them | {outside[1] * 1e3:.1f} | {outside[2] * 1e3:.1f} | "
-          f"{outside[1] / outside[2]:.2f}x |")
-    print(f"| match_stereo | {total[1] / pairs * 1e3:.1f} | {total[2] / pairs * 1e3:.1f} | "
-          f"{total[1] / total[2]:.2f}x |")
 
 
 def concurrent_copies(gl, gr, runs: int) -> None:

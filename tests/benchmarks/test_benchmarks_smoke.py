@@ -6,8 +6,9 @@ the repository root. A test fails when the script exits with an error or when it
 lacks a line or column the README or the docs quote from it (a crash, a renamed column, a
 changed row label).
 
-- The four scripts behind ``docs/performance.md`` (``end_to_end.py --profile``,
-  ``detector.py``, ``scale.py``, ``first_call.py``) run through ``run_all.py --smoke``,
+- The five scripts behind ``docs/performance.md`` (``end_to_end.py --profile``,
+  ``detector.py``, ``scale.py``, ``first_call.py``, ``threaded_share.py``) run through
+  ``run_all.py --smoke``,
   which runs each of them with ``--smoke`` and prints the page: each section must have
   every line of the same section of ``docs/performance.md`` with the numbers masked
   (headings, table headers, row labels, the goals line), except the machine line and the
@@ -42,7 +43,8 @@ PERFORMANCE_MD = ROOT / "docs" / "performance.md"
 #: kernel: about 30 s on a loaded 2-core machine).
 TIMEOUT = 300
 #: The scripts of docs/performance.md, as run_all.py runs them.
-PERFORMANCE_SCRIPTS = ["end_to_end.py", "detector.py", "scale.py", "first_call.py"]
+PERFORMANCE_SCRIPTS = ["end_to_end.py", "detector.py", "scale.py", "first_call.py",
+                       "threaded_share.py"]
 NUMBER = re.compile(r"-?\d+(?:[.,]\d+)*")
 
 
@@ -77,7 +79,7 @@ NUM = r"-?\d+(?:\.\d+)?"
 
 
 # --------------------------------------------------------------------------------------
-# run_all.py and the four scripts of docs/performance.md
+# run_all.py and the five scripts of docs/performance.md
 # --------------------------------------------------------------------------------------
 
 
