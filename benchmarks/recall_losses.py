@@ -49,7 +49,8 @@ those candidates would have if a candidate were accepted on the support of its o
 alone: the *group* being its matched neighbours (those the field counted, carried along
 the local plane as the field does) whose disparity lies within 1 px of the candidate's,
 accepted when the group has at least k members and at least a share f of the neighbours
-(on the pair as shipped, whatever ``--perturb`` says).
+(on the pair as shipped and with the defaults' own predictions, whatever ``--perturb`` and
+``--oracle-prediction`` say).
 
 ``--guided`` sets module constants of :mod:`hopmatch.matching.guided` first, as in
 ``passes.py``. ``--perturb SPEC`` changes hopmatch's right image as ``passes.py
@@ -358,8 +359,8 @@ def main(argv=None) -> int:
         with (oracle_prediction(scene.disparity) if args.oracle_prediction
               else contextlib.nullcontext()):
             rows.append((n, scene_losses(scene, args.perturb)))
-            if args.continuity_support:
-                refused.append(continuity_candidates(scene))
+        if args.continuity_support:  # the defaults' own predictions, whatever the options
+            refused.append(continuity_candidates(scene))
     print("## network: where the lost points (SGBM right, hopmatch unmatched) were lost")
     print("scene | with gt | SGBM correct | hopmatch correct | lost | wrong | "
           + " | ".join(NETWORK_COLUMNS))

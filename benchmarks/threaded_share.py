@@ -39,6 +39,7 @@ from _common import add_smoke_option, motorcycle_bgr, profile_rows, single_threa
 import hopmatch  # noqa: E402
 from hopmatch import _threads  # noqa: E402
 from hopmatch._kernels.refine import refine_rows  # noqa: E402
+from hopmatch.matching import refine  # noqa: E402
 
 
 class Regions:
@@ -184,9 +185,10 @@ def concurrent_copies(gl, gr, runs: int) -> None:
     img_l = np.ascontiguousarray(gl, dtype=np.float32)
     img_r = np.ascontiguousarray(gr, dtype=np.float32)
 
-    def call():
-        refine_rows(img_l, img_r, left, xr, yr, flat, flat, 3, 3, 0.0, False, 0.5, 2, 16, 0.02,
-                    1.5)
+    def call():  # the first stage of hopmatch.matching.refine.refine_disparities, square
+        refine_rows(img_l, img_r, left, xr, yr, flat, flat, refine.REFINE_RADIUS,
+                    refine.REFINE_RADIUS, 0.0, False, refine.REFINE_STEP, refine.REFINE_LEVELS,
+                    refine.REFINE_ITERATIONS, refine.REFINE_TOL, refine.REFINE_MAX_SHIFT)
 
     call()
     one = two = float("inf")
