@@ -1,7 +1,7 @@
 """Where match_stereo loses the left keypoints that StereoSGBM gets right, stage by stage.
 
 Run: ``python benchmarks/recall_losses.py [--scenes NAME ...] [--perturb SPEC] [--guided JSON]
-[--oracle-prediction] [--smoke]``
+[--oracle-prediction] [--continuity-support] [--smoke]``
 
 For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
 scene there; defaults, as ``benchmarks/passes.py`` runs them) it takes the left keypoints
