@@ -3,7 +3,7 @@
 Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large ranges
 truth fundamental]
 [--verge DEG] [--defaults] [--scenes NAME ...] [--refine-radius N] [--large-scene NAME
---large-factor F]``
+--large-factor F] [--large-params JSON]``
 (single thread; needs ``../shared/data`` or ``$HOPMATCH_SHARED_DATA`` for every section but
 ``large``).
 
@@ -45,7 +45,9 @@ truth fundamental]
   pixel instead (``cv2.INTER_NEAREST`` of the map, as before this reading).
   ``--large-scene NAME --large-factor F``: that shared scene upsampled F times instead
   (e.g. ``middlebury2014/ArtL`` and 8: a full-size pair whose widened range exceeds the
-  candidate budget), and any warning ``match_stereo`` gave.
+  candidate budget), and any warning ``match_stereo`` gave. ``--large-params JSON``: those
+  ``match_stereo`` parameters in both calls (e.g. ``'{"rectified": false}'``: the pair
+  matched as an unrectified one, its geometry estimated).
 - ``truth``: how well each scene's ground truth fits its own images, without a matcher
   (:func:`truth_fit`): the offset ``c`` and the gradient terms ``sx gx + sy gy`` that,
   added to the ground truth, give the lowest photometric error of the right image warped
@@ -454,6 +456,7 @@ single_thread()
 force_refine_radius(None if sys.argv[4] == "None" else int(sys.argv[4]))
 import hopmatch
 from hopmatch.evaluate import score_matches
+params = json.loads(sys.argv[6])
 if sys.argv[5] == "motorcycle":
     left, right, gt0 = motorcycle_bgr()
 else:
@@ -483,7 +486,7 @@ else:
     import warnings
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        seconds, r = best_of(lambda: hopmatch.match_stereo(left, right))
+        seconds, r = best_of(lambda: hopmatch.match_stereo(left, right, **params))
     warned = sorted(set(str(w.message) for w in caught))
     stages = dict(r.timings, **r.match_timings)
     out = dict(seconds=seconds, keypoints=len(r.points_left),
@@ -518,7 +521,7 @@ else:
         w = m & (np.abs(e) <= 2.0)
         out[name + "_bias"] = float(e[w].mean()) if w.any() else float("nan")
     out["bias"] = float(np.mean(e[np.abs(e) <= 2.0]))
-    r0 = hopmatch.match_stereo(gray(left0), gray(right0))
+    r0 = hopmatch.match_stereo(gray(left0), gray(right0), **params)
     e0, _, _ = errors(r0.matched_left, r0.matched_right, 1.0)
     out["bias_original"] = float(np.mean(e0[np.abs(e0) <= 2.0 / f])) * f
     out["f_inv"] = 1.0 / f
@@ -528,21 +531,26 @@ print(json.dumps(out))
 """
 
 
-def large(size, refine_radius=None, scene="motorcycle") -> None:
+def large(size, refine_radius=None, scene="motorcycle", params=None) -> None:
     runs = {}
+    params = params or {}
     for mode in ("hopmatch", "sift"):
         proc = subprocess.run([sys.executable, "-c", LARGE_CHILD.format(here=str(HERE)),
                                str(size[0]), str(size[1]), mode, str(refine_radius),
-                               scene],
+                               scene, json.dumps(params)],
                               capture_output=True, text=True)
         if proc.returncode:
             raise RuntimeError(f"the {mode} run failed:\n{proc.stderr}")
         runs[mode] = json.loads(proc.stdout.strip().splitlines()[-1])
     h, s = runs["hopmatch"], runs["sift"]
+    given = ", ".join(f"{k}={v!r}" for k, v in params.items())
     print(f"## Large pair: {scene} upsampled to {size[0]} x {size[1]}, "
-          "match_stereo(left, right) with no parameter\n")
-    print(f"range found: [{h['lo']:.1f}, {h['hi']:.1f}] px; keypoints {h['keypoints']}; "
-          f"neurons {h['neurons']}; matches {h['matches']}")
+          + (f"match_stereo(left, right, {given})\n" if params else
+             "match_stereo(left, right) with no parameter\n"))
+    where = ("" if "rectified" not in params or params["rectified"] is not False else
+             " (in the network's search frame)")
+    print(f"range found{where}: [{h['lo']:.1f}, {h['hi']:.1f}] px; keypoints "
+          f"{h['keypoints']}; neurons {h['neurons']}; matches {h['matches']}")
     print(f"precision: {h['p1']:.3f} at 1 px, {h['p2']:.3f} at 2 px ({h['c1']} correct at 1 px)")
     print(f"time (best of 3): {h['seconds']:.2f} s; peak memory {h['peak_mb']:.0f} MB; SIFT "
           f"detectAndCompute on both images {s['seconds']:.2f} s (ratio "
@@ -641,6 +649,9 @@ def main(argv=None) -> int:
                          "rectification check decides), over smaller perturbations too")
     ap.add_argument("--large-scene", default="motorcycle",
                     help="large: the scene upsampled (default motorcycle)")
+    ap.add_argument("--large-params", type=json.loads, default=None,
+                    help="large: match_stereo parameters (JSON object; default none), e.g. "
+                         "'{\"rectified\": false}'")
     ap.add_argument("--large-factor", type=float, default=None,
                     help="large: upsample the scene this many times (default: motorcycle to "
                          f"{LARGE[0]} x {LARGE[1]})")
@@ -658,7 +669,7 @@ def main(argv=None) -> int:
                 w, h = np.shape((datasets.load_motorcycle() if args.large_scene == "motorcycle"
                                  else datasets.load(args.large_scene)).left)[1::-1][-2:]
                 size = (round(w * args.large_factor), round(h * args.large_factor))
-            large(size, args.refine_radius, args.large_scene)
+            large(size, args.refine_radius, args.large_scene, args.large_params)
         elif not shared and section == "chessboards":
             print("## Chessboard pairs: skipped (no shared data)\n")
         elif section == "perturbed":

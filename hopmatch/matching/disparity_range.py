@@ -55,13 +55,16 @@ class DisparityRange(NamedTuple):
     the coarse pass from ``n_matches`` matches spanning ``found``), ``'fallback'`` (the
     coarse pass kept too few matches: the whole coarse search range, from 0 when
     ``min_disparity`` is None) or ``'empty'`` (no
-    keypoints or descriptors on a side: the coarse search range, nothing to find)."""
+    keypoints or descriptors on a side: the coarse search range, nothing to find).
+    ``frame``: where the disparities are measured when not along the pair's rows as given
+    (words for the warnings; empty: the rows)."""
 
     min_disparity: float
     max_disparity: float
     source: str
     found: tuple[float, float] | None = None
     n_matches: int = 0
+    frame: str = ""
 
 
 def search_width(query_size, query_pts, train_pts) -> float:
@@ -265,10 +268,12 @@ def run_in_range(run_network, found: DisparityRange, config, q_pts, t_pts, qd, t
         if found.source not in ("coarse", "fallback"):
             raise
         first = exc
-    what = (f"the range found, [{found.min_disparity:g}, {found.max_disparity:g}],"
+    where = f" {found.frame}" if found.frame else ""
+    what = (f"the range found{where}, [{found.min_disparity:g}, {found.max_disparity:g}],"
             if found.source == "coarse" else
-            f"the whole search range, [{found.min_disparity:g}, {found.max_disparity:g}] "
-            f"(the coarse pass kept fewer than {MIN_MATCHES} matches),")
+            f"the whole search range{where}, [{found.min_disparity:g}, "
+            f"{found.max_disparity:g}] (the coarse pass kept fewer than {MIN_MATCHES} "
+            "matches),")
     if found.source == "coarse":
         lo, hi = found.found
         for share in BUDGET_WIDENING:

@@ -42,6 +42,7 @@ from .candidates import (  # noqa: E402, F401
 from .diagnostics import pair_diagnosis, warn_about_pair, warn_geometry, warn_if_few_matches
 from .disambiguate import disambiguate, vertically_consistent
 from .disparity_range import (
+    DisparityRange,
     resolve_disparity_range,
     run_in_range,
     search_range,
@@ -249,7 +250,8 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
                mask=None, fundamental=None, record_energy: bool = False,
                descriptors_checked: bool = False, raise_unrectified: bool = False,
                few_matches_later: list | None = None,
-               fundamental_given: bool = True) -> NetworkResult:
+               fundamental_given: bool = True,
+               range_found: DisparityRange | None = None) -> NetworkResult:
     """Match the descriptors of a checked pair: check the descriptors (unless
     ``descriptors_checked``: float32 or uint8 C-contiguous rows already) and the mask,
     resolve the disparity range, check every budget, warn about the geometry (SPEC-free
@@ -265,7 +267,11 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     and nothing was kept, the range fallback's warning; ``exposure=`` the caller's
     :func:`~.diagnostics.exposure_note`, when it has the images) instead of being given
     here. ``fundamental_given``: False when ``fundamental`` was estimated from the pair, not
-    the caller's (the warnings' words)."""
+    the caller's (the warnings' words). ``range_found``: a range the caller resolved (as
+    :func:`~.disparity_range.resolve_disparity_range` does, in the frame of the points
+    given), searched instead of resolving one, with the same fallbacks when it exceeds a
+    budget (:func:`~.disparity_range.run_in_range`); ``config`` holds the same range (the
+    row prior's look-alikes are searched in it)."""
     q_pts, t_pts = pair.query_points, pair.train_points
     if descriptors_checked:
         qd, td = query_descriptors, train_descriptors
@@ -296,8 +302,9 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
         rows_share = rows_share_of(look_alikes, config.max_vertical)
         if prior is not None:
             t_search = prior.aligned(t_pts)
-    found = resolve_disparity_range(config, q_pts, t_search, qd, td, pair.query_size,
-                                    run_hopfield_network, mask=mask, fundamental=fundamental)
+    found = range_found or resolve_disparity_range(config, q_pts, t_search, qd, td,
+                                                   pair.query_size, run_hopfield_network,
+                                                   mask=mask, fundamental=fundamental)
     check_disparity_order(found.min_disparity, found.max_disparity)
     warn_if_negative(found)
     config = dataclasses.replace(config, min_disparity=found.min_disparity,

@@ -37,12 +37,12 @@ from .matcher import HopfieldMatcher
 from .network import PairInfo, match_pair
 from .params import MatcherConfig, matcher_config
 from .refine import REFINE_RADIUS, Refinement, refine_disparities
+from .second_try import fallback_if_kept
 from .stereo_result import PASS_GUIDED, PASS_NETWORK, StereoMatchResult
 from .tone import rematch_through_map
 from .unrectified import (
     UNRECTIFIED_VERTICAL,
     empty_network_result,
-    fallback_kept,
     match_unrectified,
     rectified_canvas,
     shared_frame,
@@ -114,7 +114,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         pair that keeps few matches on its rows without such a sign (too far off for the
         check to see, or of unlike exposure) is matched as with False too, and that match
         kept when it finds a geometry of two views side by side and more matches
-        (:func:`~.unrectified.fallback_kept`; the same warning). Only
+        (:func:`~.second_try.fallback_kept`; the same warning). Only
         without ``fundamental_matrix``, a disparity range (``min_disparity`` or
         ``max_disparity``) and ``preset="paper"``: with any of them None is True.
         True: always the rows (the images must be rectified; a far-off pair gets the
@@ -294,20 +294,20 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         if second is not None:
             result, found_r, first_warnings = second
         if may_switch and still_few(len(result.query_idx), found_l[0], found_r[0]):
-            # too few matches on its rows, and no clear sign of a pair off them: the
-            # unrectified path, kept when it finds a geometry and more matches
-            # (docs/robustness.md, "Rectification check")
+            # too few matches on its rows, and no clear sign of a pair off them: the unrectified
+            # path, kept when it finds a geometry and more (robustness.md, "Rectification check")
             later = []
-            other = _match_unrectified(*given, detector, unrectified_config, None,
-                                       mask_left, mask_right, record_energy,
-                                       warnings_later=later)
-            if fallback_kept(len(result.query_idx), other):
+            kept = fallback_if_kept(len(result.query_idx), lambda: _match_unrectified(
+                *given, detector, unrectified_config, None, mask_left, mask_right,
+                record_energy, warnings_later=later))
+            if kept is not None:
+                other, pending = kept
                 warn(f"the pair kept {len(result.query_idx)} matches along its rows and "
                      f"{len(other.query_idx)} as an unrectified pair, its epipolar geometry "
                      "estimated from the images (rectified=False; result.fundamental_matrix, "
                      "result.geometry), so it was matched as one; pass rectified=True to "
                      "search its rows anyway", UnrectifiedPairWarning)
-                for give in later:
+                for give in pending + later:
                     give()
                 return other
         for give in first_warnings:  # those of the match kept

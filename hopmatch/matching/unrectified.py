@@ -44,10 +44,9 @@ from ..errors import InvalidArgumentError
 from ..feature.descriptor import gradient_windows
 from ..feature.padding import black_padding, fill_padding
 from ..feature.sharpness import SharpnessMatch, equalise_sharpness
-from .disparity_range import coarse_extent
+from .disparity_range import DisparityRange, coarse_extent
 from .geometry import (
     EpipolarGeometry,
-    alignment_turn,
     estimate_geometry,
     given_geometry,
     quasi_euclidean_homographies,
@@ -77,15 +76,6 @@ INTERPOLATION = cv2.INTER_LANCZOS4
 #: directions, and the aligned right image is resampled, so its rows are less certain
 #: than a rectified pair's (docs/pipelines.md, "Which call for which pair").
 UNRECTIFIED_VERTICAL = 0.75
-#: ``match_stereo(rectified=None)``: a pair whose matches along its rows are few
-#: (:func:`~.diagnostics.still_few`) is matched as an unrectified pair too, and that match
-#: is kept when it found a geometry and more than this many times as many matches.
-UNRECTIFIED_FALLBACK_GAIN = 2.0
-#: ... and when the similarity that lines up its rows turns the right image by at most
-#: this many degrees and scales it by at most :data:`UNRECTIFIED_FALLBACK_SCALE` (or its
-#: inverse): two views side by side, not an object seen in another scene.
-UNRECTIFIED_FALLBACK_TURN = 15.0
-UNRECTIFIED_FALLBACK_SCALE = 1.25
 #: Passes of the network: after each but the last, F is refitted on its matches and the
 #: search frame rebuilt from it.
 PASSES = 1
@@ -335,26 +325,44 @@ def search_frame(geometry, to_aligned, size):
     raise AssertionError("SEARCH_ORDER must end with 'epipolar'")  # pragma: no cover
 
 
+#: Words for the budget warnings (:func:`~hopmatch.matching.disparity_range.run_in_range`)
+#: on where the disparities of the network's range are measured.
+SEARCH_FRAME_WORDS = "(along the estimated epipolar geometry, in its search frame)"
+
+
 def network_range(config, q_l, q_r, desc_l, desc_r, width, fundamental, inlier_hi):
-    """``(lo, hi, shift)``: the disparity range in the search frame measured by the coarse
+    """``(found, shift)``: the disparity range in the search frame measured by the coarse
     pass of the network (:func:`~hopmatch.matching.disparity_range.coarse_extent`, as for a
-    rectified pair with ``max_disparity=None``), widened by :data:`RANGE_SPAN`, and the x
-    shift of the right points that makes it start at :data:`RANGE_START`.
+    rectified pair with ``max_disparity=None``), widened by :data:`RANGE_SPAN`, as a
+    :class:`~hopmatch.matching.disparity_range.DisparityRange` (``'coarse'``, its ``found``
+    the coarse matches' extent, so that a range beyond a budget is narrowed towards it as a
+    rectified pair's is), and the x shift of the right points that makes it start at
+    :data:`RANGE_START` (the range is in the frame after that shift).
 
     The inliers' range is ``[RANGE_START, inlier_hi]`` in the search frame; the coarse pass
     searches half the width around its middle, shifted to positive disparities (the
     network's disparity is a length). When it keeps too few matches, the full pass searches
-    that window."""
+    that window (``'fallback'``)."""
     c = 0.5 * (RANGE_START + inlier_hi) - 0.25 * width   # coarse d = d - c
     F = None if fundamental is None else shift_x(-c).T @ fundamental
     found = coarse_extent(config, q_l, transform_points(q_r, shift_x(c)), desc_l, desc_r,
                           0.0, 0.5 * width, width, run_hopfield_network, fundamental=F)
     if found is None:
-        return RANGE_START, RANGE_START + 0.5 * width, c - RANGE_START
+        return (DisparityRange(RANGE_START, RANGE_START + 0.5 * width, "fallback",
+                               frame=SEARCH_FRAME_WORDS), c - RANGE_START)
     lo, hi = found[0] + c, found[1] + c
     pad = RANGE_SPAN * (hi - lo) + 0.01 * width + 2.0
     shift = lo - pad - RANGE_START
-    return RANGE_START, hi + pad - shift, shift
+    return (DisparityRange(RANGE_START, hi + pad - shift, "coarse", (lo - shift, hi - shift),
+                           found[2], SEARCH_FRAME_WORDS), shift)
+
+
+def moved_range(found: DisparityRange, by: float) -> DisparityRange:
+    """``found`` with every disparity (its range and the coarse matches' extent) plus
+    ``by``."""
+    extent = None if found.found is None else (found.found[0] + by, found.found[1] + by)
+    return found._replace(min_disparity=found.min_disparity + by,
+                          max_disparity=found.max_disparity + by, found=extent)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -517,12 +525,12 @@ def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, rec
         q_l, q_r = transform_points(pts_l, H1), transform_points(pts_a, H2)
     check_coordinate_range(q_l, "left")
     check_coordinate_range(q_r, "right")
-    lo, hi, shift = network_range(config, q_l, q_r, desc_l, desc_r, size[0], fundamental, hi)
+    found, shift = network_range(config, q_l, q_r, desc_l, desc_r, size[0], fundamental, hi)
     whole, maps = None, None
     if mode == "aligned":  # H1 = I, H2 = a shift in x
         total = float(H2[0, 2]) + shift
         whole = int(np.floor(total + 0.5))
-        lo, hi = lo + (total - whole), hi + (total - whole)  # d = xl - xa - whole
+        found = moved_range(found, total - whole)  # d = xl - xa - whole
         q_r = transform_points(pts_a, shift_x(whole))
     else:
         q_r = transform_points(q_r, shift_x(shift))
@@ -530,13 +538,15 @@ def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, rec
             fundamental = shift_x(-shift).T @ fundamental
         else:
             maps = (H1, shift_x(shift) @ H2)
-    cfg = config
-    if config.max_disparity is None:
-        cfg = dataclasses.replace(config, min_disparity=lo, max_disparity=hi)
+    cfg, derived = config, None
+    if config.max_disparity is None:  # the range found, narrowed if beyond a budget
+        cfg = dataclasses.replace(config, min_disparity=found.min_disparity,
+                                  max_disparity=found.max_disparity)
+        derived = found
     net = match_pair(PairInfo(q_l, q_r, size, size), desc_l, desc_r, cfg,
                      fundamental=fundamental, record_energy=record_energy,
                      descriptors_checked=True, few_matches_later=few_matches_later,
-                     fundamental_given=geometry.source == "given")
+                     fundamental_given=geometry.source == "given", range_found=derived)
     return net, mode, whole, maps
 
 
@@ -618,18 +628,3 @@ def empty_network_result(config) -> NetworkResult:
                          neuron_left=i32, neuron_right=i32, state=np.zeros(0, bool),
                          fields=f64, similarity=f64, n_interactions=0, iterations=0,
                          sweeps=0, converged=True, energy=0.0, config=config)
-
-
-def fallback_kept(kept_on_rows: int, other) -> bool:
-    """Whether ``match_stereo`` (``rectified=None``) keeps ``other`` (a StereoMatchResult),
-    the match of a pair as an unrectified one, over the ``kept_on_rows`` matches along its
-    rows: it found a geometry, more than :data:`UNRECTIFIED_FALLBACK_GAIN` times as many
-    matches, and a pair side by side (:data:`UNRECTIFIED_FALLBACK_TURN`,
-    :data:`UNRECTIFIED_FALLBACK_SCALE`)."""
-    if other.fundamental_matrix is None or other.geometry is None:
-        return False
-    if len(other.query_idx) <= UNRECTIFIED_FALLBACK_GAIN * max(kept_on_rows, 1):
-        return False
-    degrees, scale = alignment_turn(other.geometry)
-    return (abs(degrees) <= UNRECTIFIED_FALLBACK_TURN
-            and 1 / UNRECTIFIED_FALLBACK_SCALE <= scale <= UNRECTIFIED_FALLBACK_SCALE)

@@ -20,6 +20,7 @@ import hopmatch
 from hopmatch.errors import InvalidArgumentError, InvalidTypeError
 from hopmatch.feature.descriptor import gradient_windows
 from hopmatch.feature.padding import black_padding
+from hopmatch.matching import second_try
 from hopmatch.matching import unrectified as u
 from hopmatch.matching.geometry import symmetric_epipolar_error, transform_points
 from hopmatch.matching.stereo_match import PASS_GUIDED
@@ -410,7 +411,7 @@ def u_perturbation(angle):
 
 
 def test_the_fallback_keeps_only_a_side_by_side_geometry_with_more_matches(verged):
-    """unrectified.fallback_kept: a geometry, more than UNRECTIFIED_FALLBACK_GAIN times
+    """second_try.fallback_kept: a geometry, more than UNRECTIFIED_FALLBACK_GAIN times
     the matches along the rows, and a right image turned and scaled little."""
     import dataclasses
 
@@ -418,11 +419,11 @@ def test_the_fallback_keeps_only_a_side_by_side_geometry_with_more_matches(verge
 
     _, _, _, res = verged
     degrees, scale = alignment_turn(res.geometry)
-    assert abs(degrees) <= u.UNRECTIFIED_FALLBACK_TURN
+    assert abs(degrees) <= second_try.UNRECTIFIED_FALLBACK_TURN
     n = len(res.query_idx)
-    assert u.fallback_kept(0, res) and u.fallback_kept(n // 3, res)
-    assert not u.fallback_kept(n // 2, res)
-    assert not u.fallback_kept(0, dataclasses.replace(res, fundamental_matrix=None,
+    assert second_try.fallback_kept(0, res) and second_try.fallback_kept(n // 3, res)
+    assert not second_try.fallback_kept(n // 2, res)
+    assert not second_try.fallback_kept(0, dataclasses.replace(res, fundamental_matrix=None,
                                                       geometry=None))
     # the bootstrap's right points turned by 30 degrees about the origin: an object seen
     # turned in another scene, not the right view of a stereo pair
@@ -430,7 +431,78 @@ def test_the_fallback_keeps_only_a_side_by_side_geometry_with_more_matches(verge
     turned = (res.geometry.right_points.astype(np.float64) @ [[c, s], [-s, c]])
     geometry = dataclasses.replace(res.geometry, right_points=turned.astype(np.float32))
     assert abs(alignment_turn(geometry)[0]) > 25
-    assert not u.fallback_kept(0, dataclasses.replace(res, geometry=geometry))
+    assert not second_try.fallback_kept(0, dataclasses.replace(res, geometry=geometry))
+
+
+def test_a_second_try_as_unrectified_gives_its_warnings_only_when_kept(verged):
+    """second_try.fallback_if_kept: the second try's warnings wait for the verdict and go
+    with a try that is not kept; a try that exceeds a budget leaves the rows' match."""
+    from hopmatch._warnings import warn
+    from hopmatch.errors import BudgetExceededError
+
+    _, _, _, res = verged
+
+    def try_again():
+        warn("from the second try", UserWarning)
+        return res
+
+    def over_budget():
+        raise BudgetExceededError("the network would have too many neurons")
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert second_try.fallback_if_kept(len(res.query_idx), try_again) is None
+        kept, pending = second_try.fallback_if_kept(0, try_again)
+        assert second_try.fallback_if_kept(0, over_budget) is None
+    assert caught == [] and kept is res and len(pending) == 1
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        pending[0]()
+    assert [str(w.message) for w in caught] == ["from the second try"]
+
+
+def test_a_second_try_over_a_budget_leaves_the_rows_match(monkeypatch):
+    """The pair of test_the_defaults_match_a_pair_with_no_matches_on_its_rows_as_unrectified,
+    its second try as an unrectified pair refused by a budget (a full-size pair): the
+    defaults return what the rows kept rather than the budget's error."""
+    from hopmatch.errors import BudgetExceededError
+    from hopmatch.matching import stereo_match
+
+    left, _, warped, _, _ = perturbed_box_pair(12.0, 60.0, 1.0)
+
+    def over_budget(*args, **kwargs):
+        raise BudgetExceededError("the network would have too many neurons")
+
+    monkeypatch.setattr(stereo_match, "_match_unrectified", over_budget)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # few matches on the rows: what this test keeps
+        rows = hopmatch.match_stereo(left, warped, rectified=True)
+        auto = hopmatch.match_stereo(left, warped)
+    assert auto.geometry is None
+    np.testing.assert_array_equal(auto.matched_right, rows.matched_right)
+
+
+def test_a_range_found_beyond_the_budget_is_narrowed_as_a_rectified_pairs_is():
+    """rectified=False with no range: the range the coarse pass finds in the search frame
+    (unrectified.network_range) holds more candidate pairs than max_neurons, so the network
+    searches less of its widening around the coarse matches (disparity_range.run_in_range)
+    and says so, where it refused the pair before; the matches are as good."""
+    from hopmatch.errors import DisparityRangeWarning
+
+    left, _, warped, gt, A = perturbed_box_pair(-2.0, -8.0, 0.98)
+    plain = hopmatch.match_stereo(left, warped, rectified=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        small = hopmatch.match_stereo(left, warped, rectified=False, max_neurons=30_000)
+    budget = [str(w.message) for w in caught if w.category is DisparityRangeWarning]
+    assert len(budget) == 1 and "in its search frame" in budget[0]
+    assert "of its widening around the coarse matches' range" in budget[0]
+    wide, narrow = plain.network.config, small.network.config
+    assert wide.min_disparity < narrow.min_disparity < narrow.max_disparity < wide.max_disparity
+    t, known = perturbed_truth(small.matched_left, gt, A)
+    correct = known & (np.hypot(*(small.matched_right - t).T) <= 1)
+    assert correct.sum() / known.sum() >= 0.97
+    assert len(small.query_idx) >= 0.9 * len(plain.query_idx)
 
 
 def test_the_defaults_keep_the_rows_when_told_a_range_or_the_paper():
