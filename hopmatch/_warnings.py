@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import functools
 import os
 import sys
 import warnings
@@ -54,6 +55,26 @@ def deferred_warnings():
         yield pending
     finally:
         _deferred.reset(token)
+
+
+@contextlib.contextmanager
+def deferring(later: list | None):
+    """Within the block, :func:`warn` appends each warning to the list ``later`` as a
+    callable that gives it (and takes and ignores keyword arguments, as the callables of
+    the lists the matching steps hand on take ``kept=`` or ``exposure=``); with ``later``
+    None the warnings are given as usual. For a step whose caller may keep another result
+    instead: the warnings of a result that is not kept are never given. A block that
+    raises drops its warnings."""
+    if later is None:
+        yield
+        return
+    with deferred_warnings() as pending:
+        yield
+    later.extend(functools.partial(_give, give) for give in pending)
+
+
+def _give(give, **_) -> None:
+    give()
 
 
 def give_or_defer(pending: list, warnings_later: list | None) -> None:

@@ -10,7 +10,7 @@ import numpy as np
 
 from .._threads import resolve_threads, run_both, using_threads
 from .._validate import as_fundamental_matrix, check_coordinate_range
-from .._warnings import give_or_defer, warn
+from .._warnings import deferring, give_or_defer, warn
 from ..errors import (
     ImageSizeWarning,
     InvalidArgumentError,
@@ -338,10 +338,9 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     ``raise_unrectified``: raise :class:`~.diagnostics.LooksUnrectifiedError` where the
     rectification check would warn (:func:`match_pair`). ``warnings_later``: a list, for
     a caller that may keep another match instead (:func:`match_stereo`'s second match
-    through a tone map): the warnings about the result (few matches, not rectified, not a
-    stereo pair) are appended to it as callables instead of being given (each called with
-    no argument, or with ``exposure=`` :func:`~.diagnostics.exposure_note`'s words).
-    """
+    through a tone map): the warnings of the match (few matches, not rectified, the range)
+    are appended to it as callables instead of being given (each called with no argument,
+    or with ``exposure=`` :func:`~.diagnostics.exposure_note`'s words)."""
     pts_l, resp_l, desc_l, g_l, gray_l = left
     pts_r, resp_r, desc_r, g_r, gray_r = right
     timings = dict(timings or {})
@@ -364,9 +363,10 @@ def match_detected(left, right, config: MatcherConfig, *, keypoint_size: float,
     check_coordinate_range(pts_r, "right")
     pair = PairInfo(pts_l, pts_r, size_l, size_r)
     few_matches_check = []  # the few-matches check, made on the final matches below
-    net = match_pair(pair, desc_l, desc_r, config, fundamental=fundamental,
-                     record_energy=record_energy, descriptors_checked=True,
-                     raise_unrectified=raise_unrectified, few_matches_later=few_matches_check)
+    with deferring(warnings_later):  # the range's and the geometry's warnings too
+        net = match_pair(pair, desc_l, desc_r, config, fundamental=fundamental,
+                         record_energy=record_energy, descriptors_checked=True,
+                         raise_unrectified=raise_unrectified, few_matches_later=few_matches_check)
     t3 = time.perf_counter()
     timings["match"] = t3 - t2
     result = StereoMatchResult(

@@ -40,6 +40,7 @@ import cv2
 import numpy as np
 
 from .._validate import as_mask, check_coordinate_range
+from .._warnings import deferring
 from ..errors import InvalidArgumentError
 from ..feature.descriptor import gradient_windows
 from ..feature.padding import black_padding, fill_padding
@@ -514,7 +515,8 @@ def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, rec
     is None in the other modes. ``maps``: in ``'rectified'`` mode, ``(H1, H2)``, the maps
     of the left and the aligned right points into the network's frame; None in the
     others. ``few_matches_later``: passed to
-    :func:`~hopmatch.matching.network.match_pair`."""
+    :func:`~hopmatch.matching.network.match_pair`, and the warnings it gives itself (the
+    range's) are appended to it too."""
     H1, H2, (lo, hi), mode = search_frame(geometry, to_aligned, size)
     if H1 is None:  # the epipolar band of F, in the aligned frame shifted by H2
         F = np.linalg.inv(H2).T @ np.linalg.inv(to_aligned).T @ geometry.fundamental
@@ -543,10 +545,11 @@ def search(geometry, to_aligned, pts_l, pts_a, desc_l, desc_r, size, config, rec
         cfg = dataclasses.replace(config, min_disparity=found.min_disparity,
                                   max_disparity=found.max_disparity)
         derived = found
-    net = match_pair(PairInfo(q_l, q_r, size, size), desc_l, desc_r, cfg,
-                     fundamental=fundamental, record_energy=record_energy,
-                     descriptors_checked=True, few_matches_later=few_matches_later,
-                     fundamental_given=geometry.source == "given", range_found=derived)
+    with deferring(few_matches_later):  # the range's warnings too
+        net = match_pair(PairInfo(q_l, q_r, size, size), desc_l, desc_r, cfg,
+                         fundamental=fundamental, record_energy=record_energy,
+                         descriptors_checked=True, few_matches_later=few_matches_later,
+                         fundamental_given=geometry.source == "given", range_found=derived)
     return net, mode, whole, maps
 
 

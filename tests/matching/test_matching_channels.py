@@ -11,7 +11,7 @@ import pytest
 from synthetic_pairs import texture
 
 import hopmatch
-from hopmatch._warnings import deferred_warnings, warn
+from hopmatch._warnings import deferred_warnings, deferring, warn
 from hopmatch.errors import FewMatchesWarning, InvalidArgumentError, NotStereoPairWarning
 from hopmatch.matching import channels
 
@@ -141,3 +141,20 @@ def test_deferred_warnings_are_kept_until_given():
         pending[0]()
     assert [str(w.message) for w in seen] == ["later"]
     assert seen[0].filename == __file__  # attributed to the line that gave it
+
+
+def test_deferring_appends_to_a_list_or_gives_now_and_drops_on_an_error():
+    later = []
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        with deferring(None):
+            warn("now", FewMatchesWarning)
+        assert [str(w.message) for w in seen] == ["now"]
+        with deferring(later):
+            warn("later", FewMatchesWarning)
+        with pytest.raises(RuntimeError), deferring(later):
+            warn("dropped", FewMatchesWarning)
+            raise RuntimeError("a step that fails")
+        assert len(seen) == 1 and len(later) == 1
+        later[0](kept=3, exposure="")  # as the matching steps call their lists' items
+    assert [str(w.message) for w in seen] == ["now", "later"]

@@ -505,6 +505,23 @@ def test_a_range_found_beyond_the_budget_is_narrowed_as_a_rectified_pairs_is():
     assert len(small.query_idx) >= 0.9 * len(plain.query_idx)
 
 
+@pytest.mark.parametrize("rectified", [True, False])
+def test_a_match_made_again_through_a_tone_map_warns_of_its_range_once(rectified):
+    """A right view of another exposure is matched again through the pair's tone map
+    (docs/method.md 4.7), and both matches exceed max_neurons: only the match kept warns
+    that its range was narrowed (the first one's warning used to be given too)."""
+    from hopmatch.errors import DisparityRangeWarning
+
+    left, right, warped, _, _ = perturbed_box_pair(-2.0, -8.0, 0.98)
+    view = right if rectified else warped
+    darker = np.clip(255 * (view / 255.0) ** 2.2, 0, 255).astype(np.uint8)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = hopmatch.match_stereo(left, darker, rectified=rectified, max_neurons=30_000)
+    assert res.tone_map is not None and res.tone_map.used and len(res.query_idx) > 5000
+    assert [w.category for w in caught] == [DisparityRangeWarning]
+
+
 def test_the_defaults_keep_the_rows_when_told_a_range_or_the_paper():
     """A disparity range, a fundamental matrix or preset="paper" mean rows (or F): the
     far-off pair is not re-matched, only warned about."""
