@@ -27,7 +27,7 @@ import cv2
 
 from ._validate import as_int, as_real
 from .errors import FileReadError, HopmatchError, InvalidArgumentError, InvalidTypeError
-from .files import MAX_TEXT_BYTES, atomic_path, check_input_file
+from .files import MAX_TEXT_BYTES, atomic_path, check_input_file, check_storage_nesting
 
 _NONE_MARK = "__none__"
 
@@ -304,7 +304,12 @@ class Configurable:
                 f"`fs` must be a path or a cv2.FileStorage, got {type(fs).__name__}")
         if not fs.isOpened():
             raise InvalidArgumentError("`fs` is a cv2.FileStorage that is not open for writing")
-        self._write_node(fs, node)
+        try:
+            self._write_node(fs, node)
+        except cv2.error:  # opened for reading: OpenCV asserts write_mode
+            raise InvalidArgumentError(
+                "`fs` is a cv2.FileStorage open for reading, not writing (open it with "
+                "cv2.FILE_STORAGE_WRITE)", argument="fs") from None
 
     def _write_node(self, fs, node: str) -> None:
         fs.startWriteStruct(node, cv2.FileNode_MAP)
@@ -333,6 +338,7 @@ class Configurable:
         if isinstance(fs, (str, os.PathLike)):
             try:
                 check_input_file(fs, MAX_TEXT_BYTES, argument="fs")
+                check_storage_nesting(fs, argument="fs")
             except FileReadError as exc:
                 if exc.problem == "no such file":  # the words of before
                     raise InvalidArgumentError(f"`fs`: no such file {str(fs)!r}",

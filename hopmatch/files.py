@@ -24,6 +24,8 @@ import errno
 import os
 import secrets
 import stat
+import subprocess
+import sys
 from pathlib import Path
 
 import cv2
@@ -37,8 +39,10 @@ __all__ = [
     "MAX_TEXT_BYTES",
     "READ_KINDS",
     "atomic_path",
+    "MAX_STORAGE_NESTING",
     "check_input_file",
     "check_output_path",
+    "check_storage_nesting",
     "encode_image",
     "new_temporary_file",
     "os_reason",
@@ -64,7 +68,16 @@ READ_KINDS = {
     "unreadable": "the operating system refused the path (permission, symbolic link loop, "
                   "name too long...)",
     "too_large": "the file holds more bytes than the reader's limit",
+    "too_deep": "a FileStorage file nests sequences, maps or elements so deep that "
+                "OpenCV's parser crashes on it",
 }
+
+#: Most brackets, braces and angle brackets in all (:func:`storage_nesting_bound`) of a
+#: file that ``cv2.FileStorage`` parses without a check in a separate process
+#: (:func:`check_storage_nesting`): OpenCV's parsers recurse once per level of nesting and
+#: overflow the stack, a segmentation fault, somewhere between 20,000 and 50,000 levels
+#: (OpenCV 4.14); hopmatch's own files hold a few dozen at most.
+MAX_STORAGE_NESTING = 256
 
 #: Longest file name (one path component), in bytes, on the usual file systems.
 NAME_MAX = 255
@@ -162,6 +175,50 @@ def check_input_file(path, max_bytes: int | None = MAX_FILE_BYTES, *,
     if problem is not None:
         raise FileReadError(path, problem[1], kind=problem[0], argument=argument)
     return st
+
+
+def storage_nesting_bound(text: bytes) -> int:
+    """An upper bound of how deep the flow sequences and maps (YAML, JSON) and the XML
+    elements of a text can nest: its ``[``, ``{`` and ``<`` characters, all counted. YAML's
+    block nesting (by indentation) is not counted: within :data:`MAX_TEXT_BYTES` it cannot
+    pass about 11,500 levels, which OpenCV parses (measured: 11,000 levels, a 60 MB file)."""
+    return text.count(b"[") + text.count(b"{") + text.count(b"<")
+
+
+#: A Python program that opens the FileStorage file ``sys.argv[1]`` for reading and exits.
+_PARSE_IN_CHILD = "import sys, cv2; cv2.FileStorage(sys.argv[1], cv2.FILE_STORAGE_READ).release()"
+
+
+def check_storage_nesting(path, *, argument: str | None = None) -> None:
+    """Refuse a file for ``cv2.FileStorage`` whose nesting crashes OpenCV's parser, before
+    it is parsed in this process: a text of a few hundred kilobytes nested 50,000 deep
+    overflows the parser's stack (a segmentation fault). A file of at most
+    :data:`MAX_STORAGE_NESTING` brackets, braces and angle brackets in all
+    (:func:`storage_nesting_bound`; hopmatch's own files hold a few) cannot nest deeper
+    and passes at once; a file of more is parsed first in a child Python process, and
+    refused if that process dies of a signal or does not finish within a minute. The
+    file is read as :func:`read_input_bytes` reads it, at most :data:`MAX_TEXT_BYTES`.
+
+    Raises
+    ------
+    FileReadError
+        ``kind`` ``"too_deep"``, or those of :func:`read_input_bytes`.
+    """
+    text = read_input_bytes(path, MAX_TEXT_BYTES, argument=argument)
+    if storage_nesting_bound(text) <= MAX_STORAGE_NESTING:
+        return
+    try:
+        child = subprocess.run([sys.executable, "-c", _PARSE_IN_CHILD, os.fspath(path)],
+                               stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL, timeout=60)
+        crashed = child.returncode < 0
+    except (OSError, subprocess.SubprocessError):
+        crashed = True
+    if crashed:
+        raise FileReadError(path, "nests its sequences, maps or elements so deep that "
+                            "OpenCV's FileStorage parser crashes on it (tried in a separate "
+                            "process); is it the file you meant?", kind="too_deep",
+                            argument=argument)
 
 
 def read_input_bytes(path, max_bytes: int | None = MAX_FILE_BYTES, *,

@@ -188,3 +188,54 @@ class TestWriteErrors:
             with files.atomic_path("/proc/self/p.yml", "fs"):
                 pass
         assert exc.value.argument == "fs"
+
+
+# --------------------------------------------------------------------------------------
+# FileStorage files nested too deep for OpenCV's parser (a segmentation fault before)
+# --------------------------------------------------------------------------------------
+
+#: Texts nested 50,000 deep, each of which crashed ``cv2.FileStorage(path, READ)``.
+DEEP_TEXTS = {
+    "flow.yml": "%YAML:1.0\n---\na: " + "[" * 50_000 + "]" * 50_000 + "\n",
+    "maps.yml": "%YAML:1.0\n---\na: " + "{b: " * 50_000 + "1" + "}" * 50_000 + "\n",
+    "deep.xml": ('<?xml version="1.0"?>\n<opencv_storage>\n' + "<a>" * 50_000 + "1"
+                 + "</a>" * 50_000 + "\n</opencv_storage>\n"),
+    "deep.json": '{"a": ' + "[" * 100_000 + "]" * 100_000 + "}",
+}
+
+
+def test_the_nesting_bound_counts_every_opening_bracket():
+    assert files.storage_nesting_bound(b"") == 0
+    assert files.storage_nesting_bound(b"%YAML:1.0\n---\na: [ 1, 2 ]\nb: { c: 3 }\n") == 2
+    assert files.storage_nesting_bound(b'<?xml version="1.0"?><s><a>1</a></s>') == 5
+
+
+@pytest.mark.parametrize("name", sorted(DEEP_TEXTS))
+def test_a_filestorage_file_nested_too_deep_is_refused_before_opencv_parses_it(tmp_path,
+                                                                                name):
+    import hopmatch
+    from hopmatch.stereo import StereoCalibration
+
+    path = tmp_path / name
+    path.write_text(DEEP_TEXTS[name])
+    t0 = time.perf_counter()
+    with pytest.raises(errors.FileReadError) as exc:
+        files.check_storage_nesting(path, argument="fs")
+    assert exc.value.kind == "too_deep" and exc.value.argument == "fs"
+    assert "crashes" in exc.value.problem and time.perf_counter() - t0 < 10.0
+    with pytest.raises(InvalidArgumentError, match="crashes"):
+        hopmatch.HopfieldMatcher.create().load(str(path))
+    with pytest.raises(InvalidArgumentError, match="crashes"):
+        StereoCalibration.from_file(path)
+
+
+def test_a_deep_but_parsable_filestorage_file_is_read_after_the_check(tmp_path):
+    """More brackets than MAX_STORAGE_NESTING, few enough levels for OpenCV: checked in a
+    child process, then read."""
+    path = tmp_path / "deep.yml"
+    path.write_text("%YAML:1.0\n---\na: " + "[" * 2_000 + "]" * 2_000 + "\nb: 7\n")
+    assert files.storage_nesting_bound(path.read_bytes()) > files.MAX_STORAGE_NESTING
+    files.check_storage_nesting(path)
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    assert fs.getNode("b").real() == 7
+    fs.release()

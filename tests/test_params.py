@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import os
 
+import cv2
 import pytest
 
 import hopmatch
@@ -232,3 +233,14 @@ def test_write_errors_name_the_destination(tmp_path):
     assert isinstance(e.value, OSError) and e.value.argument == "fs" and ".tmp" not in str(e.value)
     with pytest.raises(ValueError, match="more than the 255"):
         hopmatch.HopfieldMatcher().write(str(tmp_path / ("m" * 300 + ".yml")))
+
+
+@pytest.mark.parametrize("cls", [hopmatch.HopfieldMatcher, hopmatch.DericheMoravecDetector])
+def test_write_into_a_filestorage_open_for_reading_names_the_mode(tmp_path, cls):
+    path = str(tmp_path / "p.yml")
+    cls().save(path)
+    fs = cv2.FileStorage(path, cv2.FILE_STORAGE_READ)
+    with pytest.raises(InvalidArgumentError, match="open for reading") as e:
+        cls().write(fs)
+    fs.release()
+    assert e.value.argument == "fs"

@@ -13,6 +13,7 @@ import numpy as np
 import hopmatch
 
 from .. import viz
+from ..errors import FileReadError
 from ..evaluate import correct_matches, score_matches
 from ..feature.detector import DericheMoravecDetector
 from ..matching.matcher import HopfieldMatcher
@@ -171,41 +172,50 @@ def read_fundamental_matrix(path: str) -> np.ndarray:
     """The 3 x 3 fundamental matrix of ``--fundamental-matrix FILE``: a text file of 9
     numbers (``np.savetxt(FILE, F)``), a ``.npy`` file (``np.save``), or a ``cv2.FileStorage``
     file (``.yml``/``.yaml``/``.xml``/``.json``) with a node ``F`` or ``fundamental_matrix``.
+    The file is checked as every file hopmatch reads is (:mod:`hopmatch.files`: a regular
+    file of at most ``MAX_TEXT_BYTES``; a FileStorage file nested too deep for OpenCV's
+    parser is refused before it is parsed).
 
     Raises :class:`CLIError` naming the file when it cannot be read or holds no 3 x 3
-    matrix (the matrix itself is checked by ``match_stereo``)."""
+    matrix of real numbers (the matrix itself is checked by ``match_stereo``)."""
+    from ..files import MAX_TEXT_BYTES, check_input_file, check_storage_nesting
     from ..imageio import os_reason
 
     suffix = Path(path).suffix.lower()
     try:
-        if not Path(path).is_file():
-            raise CLIError(path, "is a folder, not a file" if Path(path).is_dir()
-                           else "no such file")
+        check_input_file(path, MAX_TEXT_BYTES, argument="--fundamental-matrix")
         if suffix in (".yml", ".yaml", ".xml", ".json"):
+            check_storage_nesting(path, argument="--fundamental-matrix")
             fs = cv2.FileStorage(path, cv2.FILE_STORAGE_READ)
             try:
-                node = fs.getNode("F")
+                node = fs.getNode("F") if fs.root().isMap() else fs.root()
                 if node.empty():
                     node = fs.getNode("fundamental_matrix")
-                value = None if node.empty() else node.mat()
+                value = None if node.empty() or not node.isMap() else node.mat()
             finally:
                 fs.release()
             if value is None:
-                raise CLIError(path, "holds no matrix named F or fundamental_matrix")
+                raise CLIError(path, "holds no matrix named F or fundamental_matrix (an "
+                                     "OpenCV matrix, as cv2.FileStorage.write(\"F\", F) "
+                                     "writes it)")
         elif suffix == ".npy":
             value = np.load(path, allow_pickle=False)
         else:
             value = np.loadtxt(path, dtype=np.float64, ndmin=1)
     except CLIError:
         raise
+    except FileReadError as exc:
+        raise CLIError(path, exc.problem) from None
     except OSError as exc:
         raise CLIError(path, os_reason(exc) if exc.errno else str(exc)) from None
     except (ValueError, cv2.error) as exc:
         raise CLIError(path, f"is not a matrix file: {one_line(exc)[:200]}") from None
-    value = np.asarray(value, dtype=np.float64)
+    value = np.asarray(value)
+    if value.dtype.kind not in "biuf":
+        raise CLIError(path, f"must hold real numbers, got an array of {value.dtype}")
     if value.size != 9:
         raise CLIError(path, f"must hold the 9 numbers of a 3 x 3 matrix, got {value.size}")
-    return value.reshape(3, 3)
+    return value.astype(np.float64).reshape(3, 3)
 
 
 #: Timing rounds of the demo's steady-state figures (:func:`steady_state_times`).

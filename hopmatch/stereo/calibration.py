@@ -17,7 +17,7 @@ import numpy as np
 
 from .._validate import as_array, as_image_size, as_matrix, as_points, cv2_call, describe
 from ..errors import FileReadError, InvalidArgumentError, InvalidTypeError
-from ..files import MAX_TEXT_BYTES, atomic_path, check_input_file
+from ..files import MAX_TEXT_BYTES, atomic_path, check_input_file, check_storage_nesting
 from .checks import (
     as_alpha,
     as_camera_matrix,
@@ -453,14 +453,15 @@ def _read_storage(path: Path, name: str) -> tuple[dict, dict, list[str]]:
     """The calibration values found in one FileStorage file, their spellings, its keys."""
     try:
         check_input_file(path, MAX_TEXT_BYTES, argument=name)
+        if path.stat().st_size == 0:
+            raise InvalidArgumentError(f"`{name}`: {str(path)!r} is empty")
+        check_storage_nesting(path, argument=name)
     except FileReadError as exc:
         if exc.problem == "no such file":
             raise InvalidArgumentError(f"`{name}`: no such file {str(path)!r}",
                                        argument=name) from None
         raise InvalidArgumentError(f"`{name}`: {str(path)!r} {exc.problem}",
                                    argument=name) from None
-    if path.stat().st_size == 0:
-        raise InvalidArgumentError(f"`{name}`: {str(path)!r} is empty")
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     except (cv2.error, SystemError) as exc:  # cv2 raises SystemError for some non-text files

@@ -286,6 +286,30 @@ def test_bad_fundamental_matrix_file_exits_2(pair, tmp_path, content, words):
     assert not out.exists()
 
 
+def _write_deep_yaml(path):
+    path.write_text("%YAML:1.0\n---\nF: " + "[" * 50_000 + "]" * 50_000 + "\n")
+
+
+BAD_F_FILES = [  # (file name, how to write it or None for a folder, words of the message)
+    ("F.yml", _write_deep_yaml, "crashes"),  # OpenCV's parser overflowed its stack here
+    ("F.yml", lambda p: p.write_text('%YAML:1.0\n---\nF: "a string"\n'),
+     "holds no matrix named F"),
+    ("F.npy", lambda p: np.save(p, np.eye(3) * (1 + 1j)), "real numbers"),
+    ("F.txt", None, "is a folder"),
+]
+
+
+@pytest.mark.parametrize("name, write, words", BAD_F_FILES, ids=[w for *_, w in BAD_F_FILES])
+def test_bad_fundamental_matrix_files_of_every_kind_exit_2(pair, tmp_path, name, write,
+                                                           words):
+    path = tmp_path / name
+    path.mkdir() if write is None else write(path)
+    out = tmp_path / "out"
+    res = run("match", pair["left"], pair["right"], "--out", out, "--fundamental-matrix", path)
+    assert_bad_input(res, str(path), words)
+    assert not out.exists()
+
+
 # --------------------------------------------------------------------------------------
 # Exit status 2 for every bad input (issue 19, point 5)
 # --------------------------------------------------------------------------------------
