@@ -69,11 +69,16 @@ class DisparityRange(NamedTuple):
 
 def search_width(query_size, query_pts, train_pts) -> float:
     """The width the default ranges are fractions of: the left image's, or when unknown the
-    keypoints' horizontal extent (``max x + 1``), 0 without keypoints."""
+    keypoints' horizontal extent, from the smaller of 0 and their least x to their largest
+    (``max x + 1`` for the pixel positions of an image; points at negative x, which the
+    matcher takes, widen it), 0 without keypoints."""
     if query_size is not None:
         return float(query_size[0])
-    xs = [float(pts[:, 0].max()) for pts in (query_pts, train_pts) if len(pts)]
-    return max(xs) + 1.0 if xs else 0.0
+    sides = [pts[:, 0] for pts in (query_pts, train_pts) if len(pts)]
+    if not sides:
+        return 0.0
+    low = min(0.0, min(float(x.min()) for x in sides))
+    return max(float(x.max()) for x in sides) - low + 1.0
 
 
 def thin_points(points: np.ndarray, target: int) -> np.ndarray:

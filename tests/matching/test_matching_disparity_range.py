@@ -248,3 +248,20 @@ def test_the_range_covers_the_true_range_on_every_shared_scene(shared_data):
         lo, hi = np.percentile(v, [0.5, 99.5])
         assert c.min_disparity <= lo and hi <= c.max_disparity, name
         assert np.mean((v >= c.min_disparity) & (v <= c.max_disparity)) >= 0.99, name
+
+
+def test_points_at_negative_x_are_matched_as_the_same_points_moved_right():
+    """Without image sizes the range is a fraction of the points' extent: points at
+    negative x (which setPairInfo takes) gave a negative width, and a range refused as
+    `max_disparity` below `min_disparity`, parameters the caller never set."""
+    rng = np.random.default_rng(0)
+    left = rng.uniform(0, 300, (400, 2)).astype(np.float32)
+    right = left - [6.0, 0.0]
+    desc = rng.normal(size=(400, 25)).astype(np.float32)
+    found = []
+    for shift in (0.0, -400.0):
+        m = hopmatch.HopfieldMatcher.create()
+        m.setPairInfo(left + [shift, 0.0], right + [shift, 0.0])
+        found.append(sorted((d.queryIdx, d.trainIdx) for d in m.match(desc, desc)))
+    assert len(found[0]) > 300 and found[1] == found[0]
+    assert dr.search_width(None, left - 400, right - 400) == dr.search_width(None, left, right)
