@@ -26,20 +26,27 @@ def gradient_windows(g: np.ndarray, points: np.ndarray, size: int) -> np.ndarray
 
     Parameters
     ----------
-    g : (H, W) float32 ndarray
-        The image the windows are cut from (gradient magnitude, or grey levels).
-    points : (N, 2) float32 ndarray
-        Window centres (x, y); the windows are meant to lie inside the image (see
+    g : (H, W) ndarray of finite numbers
+        The image the windows are cut from (gradient magnitude, or grey levels); read as
+        float32.
+    points : (N, 2) array or sequence of cv2.KeyPoint
+        Window centres (x, y), finite; the windows are meant to lie inside the image (see
         :func:`window_inside`), samples outside it take the nearest border pixel.
         Non-integer centres are sampled bilinearly, exactly (in float64); integer
         centres read the pixels themselves.
     size : int
-        Odd side of the window.
+        Odd side of the window, at most :data:`MAX_WINDOW`.
 
     Returns
     -------
     (N, size * size) float32 ndarray
         One row per point, the window in raster order minus its mean.
+
+    Raises
+    ------
+    InvalidTypeError, InvalidArgumentError
+        An argument that is not as above (each named); ``BudgetExceededError`` when the
+        windows would hold more than :data:`MAX_WINDOW_VALUES` values.
 
     Examples
     --------
@@ -48,20 +55,35 @@ def gradient_windows(g: np.ndarray, points: np.ndarray, size: int) -> np.ndarray
     >>> gradient_windows(g, np.array([[2, 2]], np.float32), 3)
     array([[-6., -5., -4., -1.,  0.,  1.,  4.,  5.,  6.]], dtype=float32)
     """
-    if not (isinstance(points, np.ndarray) and points.dtype == np.float32):
-        points = as_points(points, "points")  # checked: numbers, finite, (N, 2)
-    points = np.ascontiguousarray(points, dtype=np.float32).reshape(-1, 2)
+    points = as_points(points, "points")  # checked: numbers, finite, (N, 2)
     if not isinstance(g, np.ndarray) or g.dtype == np.bool_ or not np.issubdtype(g.dtype,
                                                                                 np.number):
         raise InvalidTypeError(f"`g` must be a numeric numpy array, got {describe(g)}")
+    if np.issubdtype(g.dtype, np.complexfloating):
+        raise InvalidTypeError(f"`g` must hold real numbers, got dtype {g.dtype}")
     if len(points) and (g.ndim != 2 or g.size == 0):
         raise InvalidArgumentError(f"`g` must be a non-empty 2-D image to cut windows from, "
                                    f"got shape {g.shape}")
     size = as_int(size, "size", lo=1, hi=MAX_WINDOW)
-    side = 2 * (size // 2) + 1
-    if len(points) * side * side > MAX_WINDOW_VALUES:
+    if size % 2 == 0:
+        raise InvalidArgumentError(f"`size` must be odd (a window centred on its point), "
+                                   f"got {size}", argument="size")
+    image = np.ascontiguousarray(g, dtype=np.float32)
+    if len(points) and not np.isfinite(image).all():
+        raise InvalidArgumentError("`g` must hold finite numbers (as float32), got NaN or "
+                                   "infinity", argument="g")
+    return cut_windows(image, points, size)
+
+
+def cut_windows(g: np.ndarray, points: np.ndarray, size: int) -> np.ndarray:
+    """:func:`gradient_windows` of arguments the caller has checked: ``g`` a 2-D float32
+    image of finite values, ``points`` an (N, 2) float32 array of finite centres, ``size``
+    an odd side within :data:`MAX_WINDOW` (the pipeline's own calls, on images it made).
+    Only the budget is checked (``BudgetExceededError``)."""
+    if len(points) * size * size > MAX_WINDOW_VALUES:
         raise BudgetExceededError(
-            f"{len(points)} windows of {side} x {side} would hold "
-            f"{len(points) * side * side} values, more than {MAX_WINDOW_VALUES} (4 GiB of "
+            f"{len(points)} windows of {size} x {size} would hold "
+            f"{len(points) * size * size} values, more than {MAX_WINDOW_VALUES} (4 GiB of "
             "float32); use a smaller `size` or fewer points", argument="size")
+    points = np.ascontiguousarray(points, dtype=np.float32).reshape(-1, 2)
     return _k.bilinear_windows(np.ascontiguousarray(g, dtype=np.float32), points, size // 2)

@@ -12,7 +12,7 @@ from .._params import Configurable, Param, boolean, choice, integer, real
 from .._validate import DEFAULT_MAX_PIXELS, as_gray_image, as_mask, as_points
 from ..errors import InvalidArgumentError, InvalidTypeError
 from .blocking import block_artifact_mask
-from .descriptor import gradient_windows, window_inside
+from .descriptor import cut_windows, window_inside
 from .gradient import feature_image
 from .moravec import response, select_points
 
@@ -180,7 +180,7 @@ class DericheMoravecDetector(Configurable):
         size = self._params["descriptor_size"]
         keep = window_inside(points, g.shape, size)
         # np.compress: the kept rows, as points[keep] but ten times faster on (N, 2) rows
-        return keep, gradient_windows(g, np.compress(keep, points, axis=0), size)
+        return keep, cut_windows(g, np.compress(keep, points, axis=0), size)
 
     def detect_and_describe(self, image, mask=None, *, name: str = "image",
                             mask_name: str = "mask", keep_gray: bool = False):

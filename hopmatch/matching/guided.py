@@ -27,7 +27,7 @@ from dataclasses import fields
 import numpy as np
 
 from .._kernels import guided as _k
-from ..feature.descriptor import gradient_windows
+from ..feature.descriptor import cut_windows
 from .guided_kernels import continuity_fields, row_searches
 from .guided_results import (
     STAGE_CONTINUITY,
@@ -368,7 +368,7 @@ def guided_search(pts_l, pts_r, desc_l, desc_r, g_l, g_r, query_idx, train_idx, 
             points = np.ascontiguousarray(pts_l[q[again]])
             found_again = search_rows(
                 fallback.left, fallback.right, points,
-                gradient_windows(fallback.left, points, fallback.window_size),
+                cut_windows(fallback.left, points, fallback.window_size),
                 np.arange(len(again), dtype=np.int64), again,
                 max(min_zncc, GUIDED_FALLBACK_MIN_ZNCC))
             took = found_again[0] == _k.FOUND

@@ -42,7 +42,7 @@ import numpy as np
 from .._validate import as_mask, check_coordinate_range
 from .._warnings import deferring
 from ..errors import InvalidArgumentError
-from ..feature.descriptor import gradient_windows
+from ..feature.descriptor import cut_windows
 from ..feature.padding import black_padding, fill_padding
 from ..feature.sharpness import SharpnessMatch, equalise_sharpness
 from .disparity_range import DisparityRange, coarse_extent
@@ -618,8 +618,7 @@ def rectified_canvas(frame: SearchFrame, pts_l, pts_a):
     left = transform_points(pts_l, T @ H1).astype(np.float32)
     right = transform_points(pts_a, T @ H2).astype(np.float32)
     side = int(round(np.sqrt(np.shape(frame.descriptors[0])[1])))
-    descriptors = (gradient_windows(grads[0], left, side),
-                   gradient_windows(grads[1], right, side))
+    descriptors = (cut_windows(grads[0], left, side), cut_windows(grads[1], right, side))
     to_right = np.linalg.inv(frame.to_aligned) @ np.linalg.inv(T @ H2)
     return left, right, grays, grads, descriptors, to_right
 

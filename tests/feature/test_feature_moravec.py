@@ -509,6 +509,29 @@ class TestGradientWindows:
         out = gradient_windows(np.zeros((9, 9), np.float32), np.zeros((0, 2), np.float32), 5)
         assert out.shape == (0, 25) and out.dtype == np.float32
 
+    @pytest.mark.parametrize("points, words", [
+        (np.array([[np.nan, 5]], np.float32), "`points` contains NaN"),
+        (np.array([[10, 10, 10], [20, 20, 20]], np.float32), "`points` must have shape"),
+        (np.zeros((1, 3), np.float32), "`points` must have shape"),
+    ])
+    def test_float32_points_are_checked_as_any_others(self, points, words):
+        """float32 points skipped the checks: NaN centres gave NaN rows, and (N, 3) rows
+        were read as 3N / 2 points."""
+        g = np.random.default_rng(0).random((50, 50)).astype(np.float32)
+        with pytest.raises((InvalidArgumentError, InvalidTypeError), match=words):
+            gradient_windows(g, points, 3)
+
+    def test_an_even_size_and_a_nonfinite_image_are_refused(self):
+        g = np.random.default_rng(0).random((50, 50)).astype(np.float32)
+        pts = np.array([[20, 20]], np.float32)
+        with pytest.raises(InvalidArgumentError, match="odd") as e:
+            gradient_windows(g, pts, 8)
+        assert e.value.argument == "size"
+        g[3, 4] = np.nan
+        with pytest.raises(InvalidArgumentError, match="finite") as e:
+            gradient_windows(g, pts, 9)
+        assert e.value.argument == "g"
+
 
 class TestStrongestFirst:
     @pytest.mark.parametrize("seed", range(4))
