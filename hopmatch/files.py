@@ -69,7 +69,8 @@ READ_KINDS = {
                   "name too long...)",
     "too_large": "the file holds more bytes than the reader's limit",
     "too_deep": "a FileStorage file nests sequences, maps or elements so deep that "
-                "OpenCV's parser crashes on it",
+                "OpenCV's parser crashes on it, or a meta.json nests arrays or objects "
+                "deeper than hopmatch.datasets.catalogue.MAX_META_DEPTH",
 }
 
 #: Most brackets, braces and angle brackets in all (:func:`storage_nesting_bound`) of a

@@ -125,7 +125,7 @@ lib("hang", "HopfieldMatcher().read(FIFO .yml)",
 lib("hang", "read_pfm(FIFO)", 'def case(): return hopmatch.datasets.readers.read_pfm(F + "/fifo.pfm")',
     "refuse-noloop:", timeout=10)
 lib("hang", "read_calibration(FIFO)",
-    'def case(): return hopmatch.datasets.readers.read_calibration(F + "/fifo.txt")', "refuse-noloop:", timeout=10)
+    'def case(): return hopmatch.datasets.calibration.read_calibration(F + "/fifo.txt")', "refuse-noloop:", timeout=10)
 lib("hang", "StereoCalibration.from_file(FIFO)", '''
 def case():
     from hopmatch.stereo import calibration as c
@@ -176,10 +176,10 @@ lib("unbounded", "read_image(sparse 40 GB)",
 lib("unbounded", "read_pfm(sparse 40 GB)",
     'def case(): return hopmatch.datasets.readers.read_pfm(F + "/sparse40g.pfm")', "refuse-fast:", timeout=40)
 lib("unbounded", "read_calibration(sparse 40 GB)",
-    'def case(): return hopmatch.datasets.readers.read_calibration(F + "/sparse40g.txt")', "refuse-fast:",
+    'def case(): return hopmatch.datasets.calibration.read_calibration(F + "/sparse40g.txt")', "refuse-fast:",
     timeout=40)
 lib("unbounded", "read_kitti_calib(sparse 40 GB)",
-    'def case(): return hopmatch.datasets.readers.read_kitti_calib(F + "/sparse40g.txt")', "refuse-fast:",
+    'def case(): return hopmatch.datasets.calibration.read_kitti_calib(F + "/sparse40g.txt")', "refuse-fast:",
     timeout=40)
 lib("unbounded", "read_scene_image(30000^2 PNG)",
     'def case(): return hopmatch.datasets.readers.read_scene_image(F + "/huge30000.png")', "refuse-fast:",

@@ -16,7 +16,8 @@ data directory (:func:`shared_data_dir`). :func:`list_scenes` lists them.
 The readers raise :class:`hopmatch.errors.InvalidArgumentError` (a ``ValueError``) naming
 the file and what was expected when a file is missing or malformed.
 
-The package has two modules: :mod:`hopmatch.datasets.readers` (the file formats) and
+The package has three modules: :mod:`hopmatch.datasets.readers` (images, disparity maps
+and masks), :mod:`hopmatch.datasets.calibration` (``calib.txt`` files) and
 :mod:`hopmatch.datasets.catalogue` (the scene record and the catalogue); every name is
 importable from ``hopmatch.datasets`` itself.
 
@@ -39,6 +40,7 @@ Examples
 
 from __future__ import annotations
 
+from .calibration import read_kitti_calib, read_middlebury_calib
 from .catalogue import (
     MOTORCYCLE,
     SHARED_DATA_ENV,
@@ -50,9 +52,7 @@ from .catalogue import (
     shared_data_dir,
 )
 from .readers import (
-    read_kitti_calib,
     read_kitti_disparity,
-    read_middlebury_calib,
     read_middlebury_disparity,
     read_pfm,
 )

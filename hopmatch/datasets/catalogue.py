@@ -10,19 +10,24 @@ files of a scene are read with :mod:`hopmatch.datasets.readers`.
 from __future__ import annotations
 
 import json
+import math
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from .._validate import as_real, describe
-from ..errors import InvalidArgumentError, InvalidTypeError
+from .._validate import as_array, as_real, describe
+from ..errors import FileReadError, InvalidArgumentError, InvalidTypeError
+from .calibration import read_calibration
 from .readers import (
+    as_disparity_scale,
     as_path,
+    as_pfm_value,
+    as_unknown_value,
     existing_file,
-    read_calibration,
     read_mask,
     read_scene_disparity,
     read_scene_image,
@@ -201,6 +206,8 @@ def load_motorcycle() -> StereoScene:
 
 
 _REQUIRED_META = ("left", "right", "disp", "scale")
+#: The keys of a ``meta.json`` naming disparity files.
+_DISPARITY_KEYS = ("disp", "disp_right", "disp_all")
 
 
 def _meta_file(meta: dict, key: str, folder: Path, meta_path: Path) -> Path:
@@ -217,8 +224,7 @@ def _calibration_from_meta(value, folder: Path, meta_path: Path) -> dict | None:
     if value is None:
         return None
     if isinstance(value, dict):
-        return {k: (np.asarray(v, dtype=np.float64) if isinstance(v, list) else v)
-                for k, v in value.items()}
+        return _calibration_dict(value, meta_path)
     if isinstance(value, str) and value.strip():
         # "calib.txt" or "calib.txt (free text)": the first word names the file.
         return read_calibration(folder / value.split()[0])
@@ -232,9 +238,9 @@ def load_scene(folder, name: str | None = None) -> StereoScene:
     """Load a scene folder described by a ``meta.json``.
 
     ``meta.json`` keys: ``left``, ``right``, ``disp`` (file names, required), ``scale``
-    (required: disparity in pixels = stored value / scale), ``unknown_value`` (stored
-    value meaning "no ground truth"; default 0, or none for PFM files, whose ``inf``
-    already means unknown), ``dataset``, ``cite``; optional
+    (required: disparity in pixels = stored value / scale, in [2**-16, 2**16]),
+    ``unknown_value`` (stored value meaning "no ground truth"; default 0, or none for PFM
+    files, whose ``inf`` already means unknown), ``dataset``, ``cite``; optional
     ``disp_right``, ``disp_all`` (KITTI ``disp_occ``), ``nonoccluded_mask``,
     ``calibration`` (a file name, optionally followed by a description, of a KITTI or
     Middlebury ``calib.txt``; or a dict). A ``dmin.txt`` beside it is read into
@@ -257,6 +263,13 @@ def load_scene(folder, name: str | None = None) -> StereoScene:
     InvalidArgumentError
         ``meta.json`` or a file it names is missing or malformed, a key is missing, or
         the images and disparity maps disagree in size.
+    FileReadError
+        (an ``InvalidArgumentError``) ``meta.json`` nests arrays or objects more than
+        :data:`MAX_META_DEPTH` levels deep; a number of it (``scale``, ``unknown_value``,
+        a value of the ``calibration`` dict) is not a finite number in its range, or a
+        matrix of that dict not a rectangular list of finite numbers (the message names
+        the file and the key); ``dmin.txt`` holds no finite number; or as the readers of
+        the files it names do.
     InvalidTypeError
         ``folder`` is not a str or path.
 
@@ -277,10 +290,15 @@ def load_scene(folder, name: str | None = None) -> StereoScene:
     """
     folder = as_path(folder, "folder")
     meta_path, meta = _read_meta(folder)
-    scale = _meta_number(meta_path, "scale", meta["scale"], lo=0.0, lo_open=True)
+    scale = _meta_check(meta_path, as_disparity_scale, meta["scale"])
     unknown = meta.get("unknown_value", 0)
     pfm_unknown = meta.get("unknown_value")  # PFM: inf already means unknown
-    _meta_number(meta_path, "unknown_value", unknown, optional=True)  # used as stored
+    pfm = [meta[k].lower().endswith(".pfm") for k in _DISPARITY_KEYS
+           if isinstance(meta.get(k), str)]
+    if not all(pfm):  # an integer map: a value its pixels can hold, used as stored
+        _meta_check(meta_path, as_unknown_value, unknown)
+    if any(pfm):  # a PFM: a float32 value
+        _meta_check(meta_path, as_pfm_value, pfm_unknown, "unknown_value")
 
     def file(key):
         return _meta_file(meta, key, folder, meta_path)
@@ -329,6 +347,80 @@ def load_scene(folder, name: str | None = None) -> StereoScene:
     )
 
 
+def _calibration_dict(value: dict, meta_path: Path) -> dict:
+    """The ``calibration`` dict of a ``meta.json``: its lists as float64 arrays (finite
+    numbers, rows of equal length), its numbers finite, anything else kept as it is."""
+    out = {}
+    for key, v in value.items():
+        name = f"calibration.{key}"
+        if isinstance(v, list):
+            v = _meta_check(meta_path, as_array, v, name,
+                            "a matrix: a list of numbers, or of rows of equally many numbers")
+        elif isinstance(v, (int, float)) and not isinstance(v, bool):
+            _meta_check(meta_path, as_real, v, name)
+        out[key] = v
+    return out
+
+
+#: Deepest nesting of arrays and objects a ``meta.json`` may have. A matrix of the
+#: ``calibration`` dict is 4 levels deep; Python's JSON parser fails near 1000 (with a
+#: RecursionError), and printing a value nested that deep may fail as well.
+MAX_META_DEPTH = 32
+
+#: The JSON tokens that nesting depends on: strings (skipped whole), brackets and colons.
+_JSON_TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|[\[\]{}:]')
+
+
+def _nested_too_deep(text: str, limit: int = MAX_META_DEPTH) -> tuple[bool, str | None]:
+    """Whether the JSON ``text`` nests arrays and objects more than ``limit`` levels deep,
+    and then the top-level key under which it first does (None when not under a key).
+    Scans the text, so it also answers for a text too deep for :func:`json.loads`."""
+    if text.count("[") + text.count("{") <= limit:  # every scene description: no scan
+        return False, None
+    depth, key, previous = 0, None, ""
+    for m in _JSON_TOKEN.finditer(text):
+        token = m.group()
+        if token in ("[", "{"):
+            depth += 1
+            if depth > limit:
+                return True, key
+        elif token in ("]", "}"):
+            depth -= 1
+        elif token == ":" and depth == 1 and previous.startswith('"'):
+            key = previous[1:-1]
+        previous = token
+    return False, None
+
+
+def _json_int(digits: str) -> int | float:
+    """A JSON integer as :func:`json.loads` reads it, except that one of more digits than
+    Python converts (4300 by default) becomes the float it rounds to, ``inf``, for the
+    checks of its key to refuse, instead of a bare ``ValueError`` naming no key."""
+    try:
+        return int(digits)
+    except ValueError:
+        return float(digits)
+
+
+def _parse_meta(text: str, meta_path: Path):
+    """The JSON value of the ``meta.json`` text; errors name ``meta_path``."""
+    try:
+        meta = json.loads(text, parse_int=_json_int)
+    except json.JSONDecodeError as exc:
+        raise InvalidArgumentError(f"{str(meta_path)!r} is not valid JSON: {exc}") from None
+    except RecursionError:
+        meta = None  # nested too deeply for the parser: _nested_too_deep says where
+    too_deep, key = _nested_too_deep(text)
+    if too_deep or meta is None:
+        where = "its JSON" if key is None else f"`{key}`"
+        raise FileReadError(
+            meta_path, f"not a valid scene description: {where} nests arrays or objects "
+                       f"more than {MAX_META_DEPTH} levels deep (a scene description holds "
+                       "file names, numbers, and a calibration dict of matrices)",
+            kind="too_deep")
+    return meta
+
+
 def _read_meta(folder: Path) -> tuple[Path, dict]:
     """``(path, content)`` of the ``meta.json`` of ``folder``: a JSON object holding at
     least the keys of ``_REQUIRED_META``."""
@@ -337,10 +429,7 @@ def _read_meta(folder: Path) -> tuple[Path, dict]:
         raise InvalidArgumentError(f"scene folder {str(folder)!r} does not exist")
     existing_file(meta_path, "scene description (meta.json)")
     text = read_text_file(meta_path, "scene description (meta.json)")
-    try:
-        meta = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InvalidArgumentError(f"{str(meta_path)!r} is not valid JSON: {exc}") from None
+    meta = _parse_meta(text, meta_path)
     if not isinstance(meta, dict):
         raise InvalidArgumentError(
             f"{str(meta_path)!r} must hold a JSON object, got {type(meta).__name__}"
@@ -354,25 +443,31 @@ def _read_meta(folder: Path) -> tuple[Path, dict]:
     return meta_path, meta
 
 
-def _meta_number(meta_path: Path, key: str, value, **bounds) -> float | None:
-    """``as_real(value, key, **bounds)``, its error naming ``meta_path``."""
+def _meta_check(meta_path: Path, check, value, *args, **kwargs):
+    """``check(value, *args, **kwargs)`` (a checker of :mod:`hopmatch._validate` or
+    :mod:`~hopmatch.datasets.readers` naming the key it is given), its error re-raised as
+    a :class:`FileReadError` naming ``meta_path``: ``"<meta_path>: `<key>` must be..."``."""
     try:
-        return as_real(value, key, **bounds)
+        return check(value, *args, **kwargs)
     except (InvalidArgumentError, InvalidTypeError) as exc:
-        raise InvalidArgumentError(f"{str(meta_path)!r}: {exc}") from None
+        raise FileReadError(meta_path, str(exc)) from None
 
 
 def _read_dmin(path: Path) -> float | None:
-    """The number a Middlebury 2005 ``dmin.txt`` holds, or None when there is none."""
+    """The number a Middlebury 2005 ``dmin.txt`` holds, or None when there is none; one
+    that is not a finite number raises :class:`FileReadError` naming the file."""
     if not path.is_file():
         return None
     text = read_text_file(path, "disparity offset (dmin.txt)")
     try:
-        return float(text.split()[0])
+        dmin = float(text.split()[0])
     except (ValueError, IndexError):
-        raise InvalidArgumentError(
-            f"{str(path)!r} must hold one number (the disparity offset)"
-        ) from None
+        dmin = None
+    if dmin is None or not math.isfinite(dmin):
+        raise FileReadError(
+            path, "must hold one finite number (the disparity offset), got "
+                  f"{text.strip()[:40]!r}")
+    return dmin
 
 
 def _default_name(folder: Path) -> str:

@@ -7,7 +7,11 @@ images as ``cv2.imread`` gives them. Images are opened and decoded by
 
 Every reader raises :class:`hopmatch.errors.InvalidArgumentError` (a ``ValueError``)
 naming the file and what was expected when a file is missing or malformed, and
-:class:`hopmatch.errors.InvalidTypeError` when an argument has the wrong type.
+:class:`hopmatch.errors.InvalidTypeError` when an argument has the wrong type. A file that
+is there but holds what its format cannot (a PFM header that is not one, a calibration value
+that is not a finite number, a calibration whose focal length or baseline is not positive)
+raises :class:`hopmatch.errors.FileReadError`, the ``InvalidArgumentError`` of files:
+``"<path>: not a valid <what> file: <problem>"``.
 
 References
 ----------
@@ -29,7 +33,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .._validate import as_real, describe
+from .._validate import FLOAT32_MAX, as_real, describe
 from ..errors import FileReadError, InvalidArgumentError, InvalidTypeError
 from ..files import (
     MAX_FILE_BYTES,
@@ -41,13 +45,15 @@ from ..files import (
 from ..imageio import ImageReadError, read_image
 
 __all__ = [
+    "SCALE_RANGE",
+    "as_disparity_scale",
     "as_path",
+    "as_pfm_value",
+    "as_unknown_value",
     "existing_file",
-    "read_calibration",
-    "read_kitti_calib",
+    "malformed_file",
     "read_kitti_disparity",
     "read_mask",
-    "read_middlebury_calib",
     "read_middlebury_disparity",
     "read_pfm",
     "read_scene_disparity",
@@ -121,6 +127,13 @@ def read_text_file(path, what: str) -> str:
         raise InvalidArgumentError(f"{what} file {str(p)!r} is not a text file") from None
 
 
+def malformed_file(path, what: str, problem: str) -> FileReadError:
+    """The error for a file that is there and readable but does not hold what a ``what``
+    file should: a :class:`FileReadError` (an :class:`InvalidArgumentError`) whose message
+    is ``"<path>: not a valid <what> file: <problem>"``."""
+    return FileReadError(path, f"not a valid {what} file: {problem}")
+
+
 def _decode(path, flags: int, what: str) -> np.ndarray:
     """:func:`hopmatch.imageio.read_image` of an existing file, its errors worded as the
     other readers word theirs."""
@@ -189,7 +202,57 @@ def _single_channel(img: np.ndarray, path, what: str) -> np.ndarray:
     return img
 
 
+#: The ``scale`` a disparity file may have (stored value per pixel of disparity), 2**-16 to
+#: 2**16. Datasets use 1 to 256; within this range every 16-bit stored value gives a finite
+#: float32 disparity and a stored 1 does not vanish to 0. Beyond it the float32 division
+#: would overflow or every disparity round to 0: such a scale is a mistake.
+SCALE_RANGE = (2.0**-16, 2.0**16)
+
+
+def as_disparity_scale(scale, name: str = "scale") -> float:
+    """``scale`` as a float within :data:`SCALE_RANGE`; else :class:`InvalidTypeError`
+    (not a number) or :class:`InvalidArgumentError` naming ``name``."""
+    v = as_real(scale, name, lo=0.0, lo_open=True)
+    if not SCALE_RANGE[0] <= v <= SCALE_RANGE[1]:
+        raise InvalidArgumentError(
+            f"`{name}` (stored value per pixel of disparity) must be in [2**-16, 2**16] "
+            f"(datasets use 1 to 256), got {v!r}"
+        )
+    return v
+
+
+def as_pfm_value(value, name: str) -> float | None:
+    """``value`` (or None) as a float a PFM file can hold: 0 or a magnitude float32 keeps,
+    up to :data:`~hopmatch._validate.FLOAT32_MAX`, not rounded to 0 (a PFM value compared
+    with it would otherwise match nothing, or every 0)."""
+    v = as_real(value, name, optional=True)
+    if v is not None and (abs(v) > FLOAT32_MAX or (v != 0 and np.float32(v) == 0)):
+        raise InvalidArgumentError(
+            f"`{name}` must be a value a PFM file can hold (float32: 0, or a magnitude in "
+            f"[{float(np.finfo(np.float32).smallest_subnormal):.3g}, {FLOAT32_MAX:.3g}]), "
+            f"got {v!r}"
+        )
+    return v
+
+
+def as_unknown_value(value, name: str = "unknown_value", *, bits: int = 16,
+                     of: str = "an 8- or 16-bit disparity file") -> float | None:
+    """``value`` (or None) as a float that a pixel of an unsigned ``bits``-bit map can
+    hold: an integer in ``[0, 2**bits - 1]``; any other value would mark nothing unknown.
+    Else :class:`InvalidTypeError` (not a number) or :class:`InvalidArgumentError`
+    naming ``name`` and, as ``of``, the file."""
+    v = as_real(value, name, optional=True)
+    top = 2**bits - 1
+    if v is not None and (v != int(v) or not 0 <= v <= top):
+        raise InvalidArgumentError(
+            f"`{name}` must be an integer in [0, {top}], a value {of} can hold, got {v!r}"
+        )
+    return v
+
+
 def _to_disparity(raw: np.ndarray, scale: float, unknown_value) -> np.ndarray:
+    """``raw / scale`` as float32, NaN where ``raw`` holds ``unknown_value``; ``scale`` is
+    within :data:`SCALE_RANGE` and ``raw`` 8- or 16-bit, so nothing overflows."""
     disp = raw.astype(np.float32) / np.float32(scale)
     if unknown_value is not None:
         disp[raw == unknown_value] = np.nan
@@ -227,8 +290,10 @@ def read_middlebury_disparity(path, scale, unknown_value=0) -> np.ndarray:
     Raises
     ------
     InvalidArgumentError
-        ``scale`` is not a finite number > 0, ``unknown_value`` not finite; the file is
-        missing, cannot be decoded, holds colour, or not 8- or 16-bit integers.
+        ``scale`` is not a finite number in [2**-16, 2**16] (:data:`SCALE_RANGE`),
+        ``unknown_value`` not an integer the file's pixels can hold (0..255 for 8-bit files,
+        0..65535 for 16-bit ones); the file is missing, cannot be decoded, holds colour, or
+        not 8- or 16-bit integers.
     InvalidTypeError
         ``path`` is not a str or path, ``scale`` or ``unknown_value`` not a number.
 
@@ -241,8 +306,8 @@ def read_middlebury_disparity(path, scale, unknown_value=0) -> np.ndarray:
     array([[nan, 1. ],
            [2. , 2.5]], dtype=float32)
     """
-    scale = as_real(scale, "scale", lo=0.0, lo_open=True)
-    as_real(unknown_value, "unknown_value", optional=True)
+    scale = as_disparity_scale(scale)
+    unknown_value = as_unknown_value(unknown_value)
     raw = _decode(path, cv2.IMREAD_UNCHANGED, "Middlebury disparity")
     raw = _single_channel(raw, path, "Middlebury disparity")
     if raw.dtype not in (np.uint8, np.uint16):
@@ -250,10 +315,60 @@ def read_middlebury_disparity(path, scale, unknown_value=0) -> np.ndarray:
             f"Middlebury disparity file {str(path)!r} must hold 8- or 16-bit integers, "
             f"got {raw.dtype}"
         )
+    bits = raw.dtype.itemsize * 8
+    as_unknown_value(unknown_value, bits=bits,
+                     of=f"the {bits}-bit Middlebury disparity file {str(path)!r}")
     return _to_disparity(raw, scale, unknown_value)
 
 
-_PFM_HEADER = re.compile(rb"\A(P[Ff])\s+(\d+)\s+(\d+)\s+([-+]?[0-9.]+(?:[eE][-+]?\d+)?)\s")
+#: A PFM header: the magic, then three words (width, height, scale) each checked by
+#: :func:`_pfm_header`, then the one whitespace byte before the data. Looked for in the
+#: first :data:`_PFM_HEADER_BYTES` bytes.
+_PFM_HEADER = re.compile(rb"\A(P[Ff])\s+(\S+)\s+(\S+)\s+(\S+)\s")
+_PFM_HEADER_BYTES = 1 << 16
+#: A decimal number as the scale of a PFM header may be written: ``-1``, ``1.0``, ``.5``,
+#: ``-1e+00``.
+_PFM_SCALE = re.compile(rb"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+#: Most digits of a width or height parsed as a number. A PFM this reader takes (at most
+#: MAX_FILE_BYTES, 1 GiB) has at most 2**28 values, a 9-digit count; a longer number is
+#: refused for its length (before ``int`` could refuse it past Python's 4300 digits).
+_PFM_SIZE_DIGITS = 18
+
+
+def _pfm_size(word: bytes, name: str, p: Path) -> int:
+    """The width or height ``word`` of the PFM header of ``p``, a positive integer."""
+    digits = word.lstrip(b"0")
+    if not word.isdigit() or not digits:
+        raise malformed_file(p, "PFM", f"the header's {name} must be a positive integer "
+                                   f"(the header is 'PF' or 'Pf', then 'width height', then "
+                                   f"a non-zero scale), got {word[:32]!r}")
+    if len(digits) > _PFM_SIZE_DIGITS:
+        raise malformed_file(p, "PFM", f"the header's {name} has {len(digits)} digits, more than "
+                                   f"any PFM file of at most {MAX_FILE_BYTES} bytes can hold")
+    return int(digits)
+
+
+def _pfm_scale(word: bytes, p: Path) -> float:
+    """The scale ``word`` of the PFM header of ``p``: a finite non-zero number."""
+    scale = float(word) if _PFM_SCALE.fullmatch(word) else None
+    if scale is None or scale == 0 or not math.isfinite(scale):
+        got = word[:32] if scale is None else scale
+        raise malformed_file(p, "PFM", f"the header's scale must be a finite non-zero number "
+                                   f"whose sign gives the byte order (negative: "
+                                   f"little-endian), got {got!r}")
+    return scale
+
+
+def _pfm_header(blob: bytes, p: Path) -> tuple[int, int, int, float, int]:
+    """``(channels, width, height, scale, data offset)`` of the PFM file ``p``."""
+    m = _PFM_HEADER.match(blob, 0, _PFM_HEADER_BYTES)
+    if m is None:
+        raise malformed_file(p, "PFM", "the header must be 'PF' or 'Pf', then 'width height', "
+                                   f"then a non-zero scale, got {blob[:32]!r}")
+    width = _pfm_size(m.group(2), "width", p)
+    height = _pfm_size(m.group(3), "height", p)
+    scale = _pfm_scale(m.group(4), p)
+    return (3 if m.group(1) == b"PF" else 1), width, height, scale, m.end()
 
 
 def read_pfm(path) -> np.ndarray:
@@ -277,8 +392,12 @@ def read_pfm(path) -> np.ndarray:
 
     Raises
     ------
+    FileReadError
+        A header that is not 'PF'/'Pf', two positive integers and a finite non-zero
+        number (the message says which part is wrong), or fewer data bytes than it
+        announces.
     InvalidArgumentError
-        Missing file, bad header, or fewer data bytes than the header announces.
+        Missing or unreadable file.
 
     Examples
     --------
@@ -293,31 +412,14 @@ def read_pfm(path) -> np.ndarray:
     """
     p = existing_file(path, "PFM", MAX_FILE_BYTES)
     blob = _read_bytes(p, "PFM")
-    m = _PFM_HEADER.match(blob)
-    if m is None:
-        raise InvalidArgumentError(
-            f"PFM file {str(p)!r} has no valid header: expected 'PF' or 'Pf', then "
-            f"'width height', then a non-zero scale (got {blob[:32]!r})"
-        )
-    kind, width, height, scale = m.group(1), int(m.group(2)), int(m.group(3)), float(m.group(4))
-    if width <= 0 or height <= 0:
-        raise InvalidArgumentError(
-            f"PFM file {str(p)!r} announces a size of {width}x{height}; both must be positive"
-        )
-    if scale == 0 or not math.isfinite(scale):
-        raise InvalidArgumentError(
-            f"PFM file {str(p)!r} has scale {scale}; expected a non-zero number whose sign "
-            "gives the byte order (negative: little-endian)"
-        )
-    channels = 3 if kind == b"PF" else 1
+    channels, width, height, scale, start = _pfm_header(blob, p)
     dtype = np.dtype("<f4") if scale < 0 else np.dtype(">f4")
     count = width * height * channels
-    body = blob[m.end():]
+    body = blob[start:]
     if len(body) < count * 4:
-        raise InvalidArgumentError(
-            f"PFM file {str(p)!r} is truncated: the header announces {width}x{height}x"
-            f"{channels} float32 values ({count * 4} bytes), the file holds {len(body)}"
-        )
+        raise malformed_file(p, "PFM", f"the data is truncated: the header announces {width}x"
+                                   f"{height}x{channels} float32 values ({count * 4} bytes), "
+                                   f"the file holds {len(body)}")
     data = np.frombuffer(body, dtype=dtype, count=count).astype(np.float32)
     shape = (height, width, 3) if channels == 3 else (height, width)
     data = np.ascontiguousarray(data.reshape(shape)[::-1])
@@ -371,12 +473,12 @@ def read_scene_disparity(path, scale, unknown_value=0, pfm_unknown=None) -> np.n
         A ``.pfm`` file (read with :func:`read_pfm`; it must be grey, ``Pf``), or any
         other file, read with :func:`read_middlebury_disparity`.
     scale : float
-        Stored value per pixel of disparity (> 0).
+        Stored value per pixel of disparity, in [2**-16, 2**16] (:data:`SCALE_RANGE`).
     unknown_value : number or None
         For PNG/PGM files: the stored value meaning "no ground truth".
     pfm_unknown : number or None
         For PFM files, whose ``inf`` already means unknown: a further stored value
-        meaning it, or None.
+        meaning it (one float32 can hold: :func:`as_pfm_value`), or None.
 
     Returns
     -------
@@ -386,232 +488,33 @@ def read_scene_disparity(path, scale, unknown_value=0, pfm_unknown=None) -> np.n
     Raises
     ------
     InvalidArgumentError
-        As the reader of the file's format does, or a colour PFM file.
+        As the reader of the file's format does, a colour PFM file, or a bad ``scale`` or
+        ``pfm_unknown``.
+    FileReadError
+        As :func:`read_pfm` does, or a PFM value that divided by ``scale`` leaves the
+        float32 range.
     """
     path = as_path(path)
     if path.suffix.lower() == ".pfm":
-        scale = as_real(scale, "scale", lo=0.0, lo_open=True)
-        as_real(pfm_unknown, "pfm_unknown", optional=True)
+        scale = as_disparity_scale(scale)
+        pfm_unknown = as_pfm_value(pfm_unknown, "pfm_unknown")
         data = read_pfm(path)
         if data.ndim != 2:
             raise InvalidArgumentError(f"disparity file {str(path)!r} must be a grey 'Pf' PFM")
         if pfm_unknown is not None:
-            data[data == pfm_unknown] = np.nan
-        return np.ascontiguousarray(data / np.float32(scale), dtype=np.float32)
+            data[data == np.float32(pfm_unknown)] = np.nan
+        return _scaled_pfm(data, scale, path)
     return read_middlebury_disparity(path, scale, unknown_value)
 
 
-# --------------------------------------------------------------------------------------
-# Calibration readers
-# --------------------------------------------------------------------------------------
-
-
-
-def _parse_matrix(text: str, path, key: str) -> np.ndarray:
-    rows = [r.split() for r in text.strip().split(";")]
-    if any(len(r) != len(rows[0]) for r in rows):
-        raise InvalidArgumentError(
-            f"Middlebury calibration file {str(path)!r}: the rows of `{key}` have different "
-            f"lengths ({[len(r) for r in rows]})"
-        )
-    try:
-        return np.array([[float(v) for v in r] for r in rows], dtype=np.float64)
-    except ValueError:
-        raise InvalidArgumentError(
-            f"Middlebury calibration file {str(path)!r}: `{key}` must be a matrix like "
-            f"'[f 0 cx; 0 f cy; 0 0 1]', got {text!r}"
-        ) from None
-
-
-def read_middlebury_calib(path) -> dict:
-    """Read a Middlebury 2014 / MiddEval3 ``calib.txt``.
-
-    Lines are ``key=value``; matrices are written ``[a b c; d e f; g h i]``::
-
-        cam0=[3997.684 0 1176.728; 0 3997.684 1011.728; 0 0 1]
-        cam1=[3997.684 0 1307.839; 0 3997.684 1011.728; 0 0 1]
-        doffs=131.111
-        baseline=193.001
-        width=2964
-        height=1988
-        ndisp=280
-
-    Depth is ``Z = baseline * f / (d + doffs)`` (baseline in mm gives Z in mm).
-
-    Parameters
-    ----------
-    path : str or pathlib.Path
-        The ``calib.txt`` file.
-
-    Returns
-    -------
-    calib : dict
-        Every key of the file: matrices as (3, 3) float64 ndarrays (``cam0``, ``cam1``),
-        numbers as floats (``doffs``, ``baseline`` in mm, ``width``, ``height``,
-        ``ndisp``, ``vmin``, ...). Added, derived from ``cam0``: ``focal_length``, ``cx``,
-        ``cy`` (pixels).
-
-    Raises
-    ------
-    InvalidArgumentError
-        Missing file, a line without ``=``, a value that is neither a number nor a
-        matrix, or no 3x3 ``cam0`` / ``cam1``.
-
-    Examples
-    --------
-    >>> import tempfile, os
-    >>> path = os.path.join(tempfile.mkdtemp(), "calib.txt")
-    >>> with open(path, "w") as f:
-    ...     _ = f.write("cam0=[10 0 5; 0 10 4; 0 0 1]\\ncam1=[10 0 7; 0 10 4; 0 0 1]\\n"
-    ...                 "doffs=2\\nbaseline=100\\nwidth=12\\nheight=9\\nndisp=16\\n")
-    >>> c = read_middlebury_calib(path)
-    >>> c["cam1"][0, 2], c["doffs"], c["focal_length"], c["ndisp"]
-    (np.float64(7.0), 2.0, 10.0, 16.0)
-    """
-    p = existing_file(path, "Middlebury calibration", MAX_TEXT_BYTES)
-    text = read_text_file(p, "Middlebury calibration")
-    calib: dict = {}
-    for lineno, line in enumerate(text.splitlines(), 1):
-        line = line.strip()
-        if not line or line.startswith("#"):
-            continue
-        if "=" not in line:
-            raise InvalidArgumentError(
-                f"Middlebury calibration file {str(p)!r}, line {lineno}: expected "
-                f"'key=value', got {line!r}"
-            )
-        key, value = (s.strip() for s in line.split("=", 1))
-        if value.startswith("["):
-            if not value.endswith("]"):
-                raise InvalidArgumentError(
-                    f"Middlebury calibration file {str(p)!r}, line {lineno}: matrix "
-                    f"`{key}` is not closed with ']'"
-                )
-            calib[key] = _parse_matrix(value[1:-1], p, key)
-        else:
-            try:
-                calib[key] = float(value)
-            except ValueError:
-                raise InvalidArgumentError(
-                    f"Middlebury calibration file {str(p)!r}, line {lineno}: `{key}` must "
-                    f"be a number or a matrix, got {value!r}"
-                ) from None
-    for key in ("cam0", "cam1"):
-        if not isinstance(calib.get(key), np.ndarray) or calib[key].shape != (3, 3):
-            raise InvalidArgumentError(
-                f"Middlebury calibration file {str(p)!r} must define `{key}` as a 3x3 "
-                f"matrix '[f 0 cx; 0 f cy; 0 0 1]'"
-                + (f", got shape {calib[key].shape}" if key in calib and
-                   isinstance(calib[key], np.ndarray) else "")
-            )
-    calib["focal_length"] = float(calib["cam0"][0, 0])
-    calib["cx"] = float(calib["cam0"][0, 2])
-    calib["cy"] = float(calib["cam0"][1, 2])
-    return calib
-
-
-def read_kitti_calib(path) -> dict:
-    """Read a KITTI stereo ``calib.txt``: lines ``P0: p11 ... p34`` (3x4, row-major).
-
-    Parameters
-    ----------
-    path : str or pathlib.Path
-        The calibration file (KITTI stereo 2012 ``calib/*.txt``).
-
-    Returns
-    -------
-    calib : dict
-        ``P0`` .. ``P3`` as (3, 4) float64 ndarrays (0, 1: grey left/right; 2, 3: colour
-        left/right); any other ``key: numbers`` line as a (3, 4) or (3, 3) array when it
-        has 12 or 9 numbers, else a 1-D array. Derived for the grey pair P0/P1:
-        ``focal_length`` and ``cx``, ``cy`` (pixels, from P0), and ``baseline`` in
-        metres, ``(P0[0, 3] - P1[0, 3]) / P1[0, 0]``. Depth is
-        ``Z = focal_length * baseline / d``.
-
-    Raises
-    ------
-    InvalidArgumentError
-        Missing file, a line that is not ``key: numbers``, or P0..P3 missing or not 12
-        numbers.
-
-    Examples
-    --------
-    >>> import tempfile, os
-    >>> path = os.path.join(tempfile.mkdtemp(), "calib.txt")
-    >>> with open(path, "w") as f:
-    ...     for i, tx in enumerate([0.0, -50.0, 4.0, -46.0]):
-    ...         _ = f.write(f"P{i}: 100 0 60 {tx} 0 100 40 0 0 0 1 0\\n")
-    >>> c = read_kitti_calib(path)
-    >>> c["P1"].shape, c["focal_length"], c["baseline"]
-    ((3, 4), 100.0, 0.5)
-    """
-    p = existing_file(path, "KITTI calibration", MAX_TEXT_BYTES)
-    text = read_text_file(p, "KITTI calibration")
-    calib: dict = {}
-    for lineno, line in enumerate(text.splitlines(), 1):
-        line = line.strip()
-        if not line:
-            continue
-        key, sep, value = line.partition(":")
-        try:
-            if not sep:
-                raise ValueError
-            nums = np.array([float(v) for v in value.split()], dtype=np.float64)
-        except ValueError:
-            raise InvalidArgumentError(
-                f"KITTI calibration file {str(p)!r}, line {lineno}: expected "
-                f"'P0: 12 numbers', got {line[:80]!r}"
-            ) from None
-        key = key.strip()
-        if nums.size == 12:
-            nums = nums.reshape(3, 4)
-        elif nums.size == 9:
-            nums = nums.reshape(3, 3)
-        calib[key] = nums
-    for key in ("P0", "P1", "P2", "P3"):
-        if key not in calib or calib[key].shape != (3, 4):
-            got = f"{calib[key].size} numbers" if key in calib else "nothing"
-            raise InvalidArgumentError(
-                f"KITTI calibration file {str(p)!r} must define `{key}` as a 3x4 projection "
-                f"matrix (12 numbers), got {got}"
-            )
-    p0, p1 = calib["P0"], calib["P1"]
-    if p1[0, 0] == 0:
-        raise InvalidArgumentError(f"KITTI calibration file {str(p)!r}: P1 has zero focal length")
-    calib["focal_length"] = float(p0[0, 0])
-    calib["cx"] = float(p0[0, 2])
-    calib["cy"] = float(p0[1, 2])
-    calib["baseline"] = float((p0[0, 3] - p1[0, 3]) / p1[0, 0])
-    return calib
-
-def read_calibration(path) -> dict:
-    """Read a ``calib.txt`` of either format, told apart by its lines.
-
-    A file with a ``P0:`` line is read with :func:`read_kitti_calib`, one with a
-    ``cam0=`` line with :func:`read_middlebury_calib`.
-
-    Parameters
-    ----------
-    path : str or pathlib.Path
-        The calibration file.
-
-    Returns
-    -------
-    calib : dict
-        What the reader of its format returns.
-
-    Raises
-    ------
-    InvalidArgumentError
-        Missing or binary file, neither format, or as the reader of its format does.
-    """
-    p = existing_file(path, "calibration", MAX_TEXT_BYTES)
-    head = read_text_file(p, "calibration")[:4096]
-    if re.search(r"^\s*P0\s*:", head, re.M):
-        return read_kitti_calib(p)
-    if re.search(r"^\s*cam0\s*=", head, re.M):
-        return read_middlebury_calib(p)
-    raise InvalidArgumentError(
-        f"calibration file {str(p)!r} is neither KITTI ('P0: ...' lines) nor Middlebury "
-        "('cam0=[...]' lines)"
-    )
+def _scaled_pfm(data: np.ndarray, scale: float, path: Path) -> np.ndarray:
+    """``data / scale`` as float32 for the PFM file ``path``; a value the division takes
+    beyond the float32 range is refused (it is no disparity)."""
+    with np.errstate(over="ignore"):
+        disp = data / np.float32(scale)
+    if np.isinf(disp).any():
+        big = float(np.nanmax(np.abs(data)))
+        raise malformed_file(path, "disparity", f"it holds a value of magnitude {big:.3g}, which "
+                                            f"divided by `scale` {scale!r} is beyond the "
+                                            f"float32 range (+-{FLOAT32_MAX:.3g})")
+    return np.ascontiguousarray(disp, dtype=np.float32)

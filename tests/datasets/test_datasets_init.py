@@ -4,13 +4,14 @@ importable from it, and is the same object."""
 from __future__ import annotations
 
 import hopmatch.datasets as ds
-from hopmatch.datasets import catalogue, readers
+from hopmatch.datasets import calibration, catalogue, readers
 
 
 def test_all_names_are_the_modules_objects():
     for name in ds.__all__:
         obj = getattr(ds, name)
-        homes = [m for m in (catalogue, readers) if name in getattr(m, "__all__", ())]
+        homes = [m for m in (calibration, catalogue, readers)
+                 if name in getattr(m, "__all__", ())]
         assert len(homes) == 1, name
         assert getattr(homes[0], name) is obj, name
 

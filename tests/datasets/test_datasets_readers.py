@@ -19,10 +19,10 @@ from hopmatch.datasets import (
     read_middlebury_disparity,
     read_pfm,
 )
+from hopmatch.datasets.calibration import read_calibration
 from hopmatch.datasets.readers import (
     as_path,
     existing_file,
-    read_calibration,
     read_mask,
     read_scene_disparity,
     read_scene_image,
