@@ -127,10 +127,12 @@ def knn_rows(res: NetworkResult, n_query: int, n_train: int, k: int, mask=None,
     row_of = np.full(n_query, -1, dtype=np.int64)
     row_of[short] = np.arange(len(short))
     mine = row_of[left] >= 0
-    taken = np.full((len(short), width), -1, dtype=np.int64)
-    taken[row_of[left[mine]], rank[mine]] = right[mine]
-    for j in range(width):
-        pool[pool == taken[:, j:j + 1]] = n_train
+    # each row's pool is increasing: find a candidate in it by one search over all rows,
+    # keyed row * (n_train + 1) + index (the fill value n_train stays within its row)
+    keys = (np.arange(len(short), dtype=np.int64)[:, None] * (n_train + 1) + pool).ravel()
+    wanted = row_of[left[mine]] * (n_train + 1) + right[mine]
+    at = np.minimum(np.searchsorted(keys, wanted), len(keys) - 1)
+    pool.ravel()[at[keys[at] == wanted]] = n_train
     pool.sort(axis=1)
     need = k - count[short]
     pick = (np.arange(width)[None, :] < need[:, None]) & (pool < n_train)
