@@ -93,9 +93,13 @@ def sharpness(band: np.ndarray, valid: np.ndarray | None = None) -> float:
 
 def blurred(image: np.ndarray, sigma: float) -> np.ndarray:
     """``image`` (float32) blurred by a Gaussian of ``sigma`` px (mirrored border, as
-    ``cv2.GaussianBlur`` does by default); ``image`` itself for ``sigma <= 0``."""
+    ``cv2.GaussianBlur`` does by default); ``image`` itself for ``sigma <= 0``. Grey
+    levels beyond :data:`FLOAT32_SUMS` are blurred in float64 (the float32 sums of the
+    filter would overflow to infinity), and the result, a weighted mean of them, cast back."""
     if sigma <= 0.0:
         return image
+    if image.size and float(np.max(np.abs(image))) > FLOAT32_SUMS:
+        return cv2.GaussianBlur(image.astype(np.float64), (0, 0), sigma).astype(np.float32)
     return cv2.GaussianBlur(image, (0, 0), sigma)
 
 

@@ -138,3 +138,21 @@ def test_sharpness_ratio_is_checked(value, exc):
     left = _image(seed=7).astype(np.uint8)
     with pytest.raises(exc, match="sharpness_ratio"):
         hopmatch.match_stereo(left, left, sharpness_ratio=value)
+
+
+def test_grey_levels_near_the_float32_limit_blur_without_overflow():
+    """A float32 view of +-3.4e38 (refused by nothing: finite) was blurred in float32,
+    whose sums overflowed to infinity, and the sharpness of the blurred view then
+    subtracted infinities (a RuntimeWarning, and a NaN in the bisection)."""
+    import warnings
+
+    g = texture(60, 80, seed=3)
+    huge = np.where(g > 128, 3.4e38, -3.4e38).astype(np.float32)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        out = sh.blurred(huge, 2.0)
+        measured = sh.sharpness(out)
+    assert out.dtype == np.float32 and np.isfinite(out).all()
+    assert np.abs(out).max() <= 3.4e38 and np.isfinite(measured)
+    scaled = sh.blurred((huge / np.float32(3.4e36)), 2.0) * np.float32(3.4e36)
+    assert np.allclose(out, scaled, rtol=1e-4, atol=3.4e38 * 1e-6)
