@@ -400,8 +400,27 @@ def write_bytes_atomic(path, data: bytes, name: str = "path") -> Path:
 
 
 def write_text_atomic(path, text: str, encoding: str = "utf-8") -> Path:
-    """Write ``text`` to ``path`` atomically (temporary file in the same folder, then rename)."""
-    return write_bytes_atomic(path, text.encode(encoding))
+    """Write ``text`` to ``path`` atomically (temporary file in the same folder, then rename).
+
+    Raises :class:`~hopmatch.errors.InvalidTypeError` when ``text`` is not a str (bytes go
+    to :func:`write_bytes_atomic`) and :class:`~hopmatch.errors.InvalidArgumentError` for
+    an ``encoding`` Python does not know or that cannot encode ``text``, before anything
+    is written."""
+    if not isinstance(text, str):
+        raise InvalidTypeError(f"`text` must be a str (write bytes with write_bytes_atomic), "
+                               f"got {describe(text)}", argument="text")
+    if not isinstance(encoding, str):
+        raise InvalidTypeError(f"`encoding` must be a str, got {describe(encoding)}",
+                               argument="encoding")
+    try:
+        data = text.encode(encoding)
+    except LookupError:
+        raise InvalidArgumentError(f"`encoding`: unknown encoding {encoding!r}",
+                                   argument="encoding") from None
+    except UnicodeEncodeError as exc:
+        raise InvalidArgumentError(f"`text` cannot be encoded as {encoding!r}: {exc.reason} "
+                                   f"at position {exc.start}", argument="text") from None
+    return write_bytes_atomic(path, data)
 
 
 def encode_image(image, ext: str = ".png") -> bytes:

@@ -239,3 +239,18 @@ def test_a_deep_but_parsable_filestorage_file_is_read_after_the_check(tmp_path):
     fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     assert fs.getNode("b").real() == 7
     fs.release()
+
+
+def test_write_text_atomic_refuses_bytes_and_unknown_encodings_before_writing(tmp_path):
+    target = tmp_path / "x.txt"
+    with pytest.raises(errors.InvalidTypeError, match="write_bytes_atomic") as e:
+        files.write_text_atomic(target, b"abc")
+    assert e.value.argument == "text"
+    with pytest.raises(InvalidArgumentError, match="unknown encoding") as e:
+        files.write_text_atomic(target, "abc", encoding="no-such-codec")
+    assert e.value.argument == "encoding"
+    with pytest.raises(InvalidArgumentError, match="cannot be encoded as 'ascii'"):
+        files.write_text_atomic(target, "caf\u00e9", encoding="ascii")
+    assert list(tmp_path.iterdir()) == []
+    files.write_text_atomic(target, "caf\u00e9")
+    assert target.read_text(encoding="utf-8") == "caf\u00e9"

@@ -37,3 +37,20 @@ def test_format_table_refuses_unknown_formats():
     with pytest.raises(ValueError, match="fmt") as info:
         format_table({"x": [1]}, "xml")
     assert info.value.argument == "fmt"
+
+
+def test_matches_table_refuses_rows_of_different_counts_and_non_numbers_by_name():
+    """Arrays of different lengths were cut to the shortest (zip), silently."""
+    from hopmatch.errors import InvalidArgumentError, InvalidTypeError
+
+    lp = np.float32([[10, 10], [20, 20]])
+    with pytest.raises(InvalidArgumentError, match="one row per match") as e:
+        matches_table(lp, lp[:1] - [5, 0], np.ones(2), np.ones(2))
+    assert e.value.argument == "matched_right"
+    with pytest.raises(InvalidTypeError, match="`disparities`"):
+        matches_table(lp, lp, ["a", "b"], np.ones(2))
+    with pytest.raises(InvalidArgumentError, match=r"`matched_right` must be an \(M, 2\)"):
+        matches_table(lp, np.zeros((2, 3)), np.ones(2), np.ones(2))
+    with pytest.raises(InvalidArgumentError, match="one value per row"):
+        format_table({"x": [1, 2], "y": [3]})
+    assert matches_table([], [], [], []) == ",".join(MATCH_COLUMNS) + "\n"
