@@ -5,32 +5,48 @@ grey or BGR(A), 8-bit, 16-bit or float; other depths than 8-bit are stretched to
 for display (:func:`as_display_image`). Keypoints are ``cv2.KeyPoint`` sequences or
 ``(N, 2)`` (x, y) arrays; matches are ``cv2.DMatch`` sequences or ``(M, 2)`` (left index,
 right index) arrays (:func:`as_index_pairs`).
+
+The checks of drawing parameters shared by every module of :mod:`hopmatch.viz` live here:
+colours (:func:`as_colour`), radii and marker sizes (:func:`as_draw_size`), flags
+(:func:`as_flags`) and the size of a picture the caller's arguments set
+(:func:`check_canvas`).
 """
 
 from __future__ import annotations
 
+import math
+import numbers
 from collections.abc import Sequence
 
 import cv2
 import numpy as np
 
 from .._validate import (
+    MAX_IMAGE_PIXELS,
     as_array,
     as_gray_image,
+    as_int,
     as_match_indices,
     as_points,
+    as_real,
     check_coordinate_range,
+    describe,
     keypoint_positions,
 )
-from ..errors import InvalidArgumentError, InvalidTypeError
+from ..errors import BudgetExceededError, InvalidArgumentError, InvalidTypeError
 
 __all__ = [
     "GREEN",
     "GREY",
+    "MAX_DRAW_SIZE",
     "RED",
+    "as_colour",
     "as_disparities",
     "as_display_image",
+    "as_draw_size",
+    "as_flags",
     "as_index_pairs",
+    "check_canvas",
     "disparity_colours",
     "draw_disparity",
     "draw_keypoints",
@@ -42,6 +58,10 @@ __all__ = [
 GREEN = (0, 200, 0)
 RED = (0, 0, 255)
 GREY = (160, 160, 160)
+
+#: Largest dot radius and marker size drawn, in pixels (4096: a dot that covers an 8K
+#: picture). The drawn radius of a keypoint (half its ``size``) is clipped to it.
+MAX_DRAW_SIZE = 2**12
 
 
 # --------------------------------------------------------------------------------------
@@ -143,9 +163,21 @@ def _as_dmatches(matches, n_left: int, n_right: int) -> list:
     return [cv2.DMatch(int(q), int(t), 0.0) for q, t in pairs.tolist()]
 
 
-def _flags(values, name: str, n: int) -> np.ndarray:
-    """``values`` as an ``(n,)`` bool array, one flag per match."""
-    values = np.asarray(values)
+def as_flags(values, name: str, n: int) -> np.ndarray:
+    """``values`` as an ``(n,)`` bool array, one flag per match.
+
+    Raises
+    ------
+    InvalidTypeError
+        Not an array of bools (a string, numbers, objects).
+    InvalidArgumentError
+        Not one flag per match.
+    """
+    try:
+        values = np.asarray(values)
+    except (TypeError, ValueError):  # ragged lists: NumPy's own error
+        raise InvalidTypeError(f"`{name}` must be a bool array, got {describe(values)}",
+                               argument=name) from None
     if values.dtype != np.bool_:
         raise InvalidTypeError(f"`{name}` must be a bool array, got dtype {values.dtype}")
     if values.shape != (n,):
@@ -153,6 +185,67 @@ def _flags(values, name: str, n: int) -> np.ndarray:
             f"`{name}` must have shape ({n},), one flag per match, got {values.shape}"
         )
     return values
+
+
+def as_colour(value, name: str) -> tuple[int, ...]:
+    """``value`` as a colour to draw with: a tuple of 1 to 4 ints in 0..255.
+
+    As OpenCV takes a ``Scalar``: ``(B, G, R)``, or fewer numbers (the missing channels are
+    0), or four (the fourth is ignored on a BGR picture); a tuple, list or 1-D array of real
+    numbers, rounded to the nearest integer.
+
+    Raises
+    ------
+    InvalidTypeError
+        Not a sequence of numbers (a colour name such as ``"red"``, None, a bare number).
+    InvalidArgumentError
+        Fewer than 1 or more than 4 numbers, or one outside 0..255 (or NaN).
+    """
+    if isinstance(value, np.ndarray) and value.ndim == 1:
+        value = value.tolist()
+    if not isinstance(value, Sequence) or isinstance(value, (str, bytes)) or not all(
+            isinstance(v, numbers.Real) and not isinstance(v, bool) for v in value):
+        raise InvalidTypeError(
+            f"`{name}` must be a colour (B, G, R) of numbers in 0..255, as OpenCV takes, "
+            f"got {describe(value)}", argument=name)
+    if not 1 <= len(value) <= 4 or not all(0 <= v <= 255 for v in value):
+        raise InvalidArgumentError(
+            f"`{name}` must be a colour (B, G, R) of 1 to 4 numbers in 0..255, got "
+            f"{tuple(value)!r}", argument=name)
+    return tuple(int(round(float(v))) for v in value)
+
+
+def as_draw_size(value, name: str, *, lo: int = 0) -> int:
+    """``value`` as a radius or marker size in pixels: an integer in
+    ``[lo, MAX_DRAW_SIZE]`` (:data:`MAX_DRAW_SIZE`; OpenCV refuses negative radii and
+    sizes beyond a C int, and a larger dot would only cover the picture more slowly).
+
+    Raises
+    ------
+    InvalidTypeError
+        Not an integer (OpenCV's drawing functions take integer sizes).
+    InvalidArgumentError
+        Outside ``[lo, MAX_DRAW_SIZE]``.
+    """
+    return as_int(value, name, lo=lo, hi=MAX_DRAW_SIZE)
+
+
+def check_canvas(height: int, width: int, name: str, value) -> None:
+    """Refuse a picture of ``height`` x ``width`` pixels beyond
+    :data:`~hopmatch._validate.MAX_IMAGE_PIXELS` (2**30) before it is allocated; ``name``
+    and ``value`` are the argument that sets its size, for the message.
+
+    Raises
+    ------
+    BudgetExceededError
+        The picture would be too large (an :class:`InvalidArgumentError`).
+    """
+    n = int(height) * int(width)
+    if n > MAX_IMAGE_PIXELS:
+        raise BudgetExceededError(
+            f"`{name}` = {value!r} would make a {height} x {width} picture ({n} pixels, "
+            f"{3 * n / 2**30:.3g} GiB in BGR), more than the {MAX_IMAGE_PIXELS} pixels "
+            "hopmatch draws; give a smaller value", argument=name)
 
 
 # --------------------------------------------------------------------------------------
@@ -206,8 +299,8 @@ def draw_matches(left, right, kps_l, kps_r, matches, correct=None, *, known=None
     single = 0 if draw_single_points else cv2.DrawMatchesFlags_NOT_DRAW_SINGLE_POINTS
     if correct is None:
         return cv2.drawMatches(img_l, kl, img_r, kr, dm, None, flags=single)
-    correct = _flags(correct, "correct", len(dm))
-    known = np.ones(len(dm), bool) if known is None else _flags(known, "known", len(dm))
+    correct = as_flags(correct, "correct", len(dm))
+    known = np.ones(len(dm), bool) if known is None else as_flags(known, "known", len(dm))
     # unknown first, wrong last: the red lines stay visible on top
     groups = [(GREY, ~known), (GREEN, known & correct), (RED, known & ~correct)]
     out = None
@@ -225,11 +318,22 @@ def draw_matches(left, right, kps_l, kps_r, matches, correct=None, *, known=None
 
 def disparity_colours(disparities, lo: float, hi: float) -> np.ndarray:
     """``(N, 3)`` uint8 BGR colours of ``disparities`` on ``COLORMAP_TURBO``: ``lo`` dark
-    blue, ``hi`` dark red, values outside clipped."""
-    d = np.asarray(disparities, np.float64).reshape(-1)
+    blue, ``hi`` dark red, values outside clipped (all dark blue when ``hi <= lo``).
+
+    Raises
+    ------
+    InvalidTypeError
+        ``disparities`` are not numbers, or ``lo`` or ``hi`` is not a number.
+    InvalidArgumentError
+        ``lo`` or ``hi`` is not finite.
+    """
+    lo, hi = as_real(lo, "lo"), as_real(hi, "hi")
+    d = as_array(disparities, "disparities", "an array of disparities", finite=False)
+    d = d.reshape(-1)
     if d.size == 0:
         return np.zeros((0, 3), np.uint8)
-    scale = 255.0 / (hi - lo) if hi > lo else 0.0
+    span = hi - lo
+    scale = 255.0 / span if hi > lo and math.isfinite(span) else 0.0
     levels = np.clip((d - lo) * scale, 0, 255).astype(np.uint8).reshape(-1, 1)
     return cv2.applyColorMap(levels, cv2.COLORMAP_TURBO).reshape(-1, 3)
 
@@ -250,7 +354,7 @@ def draw_disparity(left, points, disparities, max_disparity=None, *, radius: int
         Disparity drawn red (the top of the colour map); default: the largest given.
         ``min_disparity`` (default 0) is drawn dark blue; values outside are clipped.
     radius : int
-        Dot radius in pixels.
+        Dot radius in pixels, in ``[0, MAX_DRAW_SIZE]`` (:data:`MAX_DRAW_SIZE`).
 
     Returns
     -------
@@ -260,7 +364,10 @@ def draw_disparity(left, points, disparities, max_disparity=None, *, radius: int
     Raises
     ------
     InvalidArgumentError
-        Not one finite disparity per point, or ``max_disparity`` is not finite.
+        Not one finite disparity per point, ``min_disparity`` or ``max_disparity`` is not
+        finite, or ``radius`` is outside its range.
+    InvalidTypeError
+        ``radius`` is not an integer, or a bound of the scale is not a number.
 
     Examples
     --------
@@ -268,19 +375,19 @@ def draw_disparity(left, points, disparities, max_disparity=None, *, radius: int
     >>> draw_disparity(np.zeros((30, 40), np.uint8), np.float32([[5, 5]]), [3.0]).shape
     (30, 40, 3)
     """
+    radius = as_draw_size(radius, "radius")
+    lo = as_real(min_disparity, "min_disparity")
+    hi = as_real(max_disparity, "max_disparity", optional=True)
     gray = as_display_image(left, "left")
     gray = cv2.cvtColor(cv2.cvtColor(gray, cv2.COLOR_BGR2GRAY), cv2.COLOR_GRAY2BGR)
     pts = drawable_points(points, "points")
     disp = as_disparities(disparities, "disparities", pts.shape[0])
     if len(disp) == 0:
         return gray
-    lo = float(min_disparity)
-    hi = float(max_disparity) if max_disparity is not None else float(disp.max())
-    if not np.isfinite(hi):
-        raise InvalidArgumentError(f"`max_disparity` must be finite, got {max_disparity}")
+    hi = float(disp.max()) if hi is None else hi
     colours = disparity_colours(disp, lo, hi).tolist()
     for (x, y), c in zip(np.rint(pts).astype(int).tolist(), colours):
-        cv2.circle(gray, (x, y), int(radius), tuple(int(v) for v in c), -1, cv2.LINE_AA)
+        cv2.circle(gray, (x, y), radius, tuple(int(v) for v in c), -1, cv2.LINE_AA)
     return gray
 
 
@@ -292,13 +399,22 @@ def draw_keypoints(image, keypoints, color=(0, 255, 0)) -> np.ndarray:
     image : (H, W) or (H, W, 3|4) ndarray
         Grey or BGR(A); non-8-bit images are stretched for display.
     keypoints : sequence of cv2.KeyPoint or (N, 2) float32 ndarray
-        (x, y); array rows are drawn as keypoints of size 5.
+        (x, y); array rows are drawn as keypoints of size 5. Each circle has the radius
+        ``size / 2``, clipped to ``[0, MAX_DRAW_SIZE]`` (:data:`MAX_DRAW_SIZE`; a NaN
+        size is drawn as 0): OpenCV cannot draw the circle of a keypoint of size 1e30,
+        nor of a negative size.
     color : (B, G, R)
+        1 to 4 numbers in 0..255, as OpenCV takes (:func:`as_colour`).
 
     Returns
     -------
     (H, W, 3) uint8 ndarray
         BGR picture.
+
+    Raises
+    ------
+    InvalidArgumentError, InvalidTypeError
+        ``image``, ``keypoints`` or ``color`` are not of the kinds above.
 
     Examples
     --------
@@ -306,7 +422,24 @@ def draw_keypoints(image, keypoints, color=(0, 255, 0)) -> np.ndarray:
     >>> draw_keypoints(np.zeros((30, 40), np.uint16), np.float32([[5, 5]])).shape
     (30, 40, 3)
     """
+    colour = as_colour(color, "color")
     img = as_display_image(image, "image")
-    kps = _as_keypoints(keypoints, "keypoints")
-    return cv2.drawKeypoints(img, kps, None, color=color,
+    kps = _with_drawable_sizes(_as_keypoints(keypoints, "keypoints"))
+    return cv2.drawKeypoints(img, kps, None, color=colour,
                              flags=cv2.DrawMatchesFlags_DRAW_RICH_KEYPOINTS)
+
+
+def _with_drawable_sizes(keypoints: list) -> list:
+    """``keypoints``, those whose drawn radius (``size / 2``) is outside
+    ``[0, MAX_DRAW_SIZE]`` or NaN replaced by copies of size clipped to that range (0 for
+    NaN); the caller's keypoints are left as they are."""
+    top = 2.0 * MAX_DRAW_SIZE
+    out = []
+    for kp in keypoints:
+        size = kp.size
+        if not 0.0 <= size <= top:  # NaN, negative or too large
+            size = 0.0 if math.isnan(size) else min(max(size, 0.0), top)
+            kp = cv2.KeyPoint(kp.pt[0], kp.pt[1], size, kp.angle, kp.response, kp.octave,
+                              kp.class_id)
+        out.append(kp)
+    return out

@@ -11,10 +11,17 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .._validate import as_gray_image, describe
-from ..errors import InvalidArgumentError, InvalidTypeError
+from .._validate import as_gray_image, as_int, as_real, describe
+from ..errors import InvalidTypeError
 from ..feature import DericheMoravecDetector, deriche_gradient
-from .draw import as_display_image, as_index_pairs, drawable_points
+from .draw import (
+    as_colour,
+    as_display_image,
+    as_draw_size,
+    as_index_pairs,
+    check_canvas,
+    drawable_points,
+)
 from .overview import spread_subset
 
 __all__ = [
@@ -108,9 +115,11 @@ def draw_keypoints_on_gradient(image, keypoints, detector=None, *, color=FIGURE_
         Gives ``alpha`` and ``omega`` of the gradient; default: a detector with the
         default parameters.
     color : (B, G, R)
-        Colour of the crosses (default red).
+        Colour of the crosses (default red): 1 to 4 numbers in 0..255, as OpenCV takes
+        (:func:`~hopmatch.viz.draw.as_colour`).
     marker_size : int
-        Side of the crosses in pixels.
+        Side of the crosses in pixels, in ``[1, MAX_DRAW_SIZE]``
+        (:data:`hopmatch.viz.draw.MAX_DRAW_SIZE`).
 
     Returns
     -------
@@ -122,7 +131,7 @@ def draw_keypoints_on_gradient(image, keypoints, detector=None, *, color=FIGURE_
     InvalidTypeError
         ``detector`` is neither a DericheMoravecDetector nor None.
     InvalidArgumentError, InvalidTypeError
-        ``image`` or ``keypoints`` are not of the kinds above.
+        ``image``, ``keypoints``, ``color`` or ``marker_size`` are not of the kinds above.
 
     See Also
     --------
@@ -142,11 +151,12 @@ def draw_keypoints_on_gradient(image, keypoints, detector=None, *, color=FIGURE_
     >>> fig5[y, x].tolist()
     [0, 0, 255]
     """
+    colour = as_colour(color, "color")
+    marker_size = as_draw_size(marker_size, "marker_size", lo=1)
     picture = _gradient_display(image, detector)
     pts = drawable_points(keypoints, "keypoints")
-    colour = tuple(int(c) for c in color)
     for x, y in np.rint(pts).astype(np.int64).tolist():
-        cv2.drawMarker(picture, (x, y), colour, cv2.MARKER_CROSS, int(marker_size), 1,
+        cv2.drawMarker(picture, (x, y), colour, cv2.MARKER_CROSS, marker_size, 1,
                        cv2.LINE_8)
     return picture
 
@@ -198,9 +208,11 @@ def draw_labelled_matches(left, right, kps_l, kps_r, matches, *, draw_lines: boo
         7 px high).
     color, label_color : (B, G, R)
         Colours of the crosses (default red) and of the numbers (default yellow, outlined
-        in black).
+        in black): 1 to 4 numbers in 0..255, as OpenCV takes
+        (:func:`~hopmatch.viz.draw.as_colour`).
     gap : int
-        Pixels of black between the two images, >= 0.
+        Pixels of black between the two images, >= 0; the picture must stay within
+        :data:`~hopmatch._validate.MAX_IMAGE_PIXELS` (2**30 pixels).
     max_labels : int, optional
         Draw at most this many matches (>= 1), spread over the rows; default all.
 
@@ -212,10 +224,13 @@ def draw_labelled_matches(left, right, kps_l, kps_r, matches, *, draw_lines: boo
     Raises
     ------
     InvalidArgumentError
-        A match refers to a keypoint that does not exist, ``gap`` < 0 or
-        ``font_scale`` <= 0.
+        A match refers to a keypoint that does not exist, ``gap`` < 0,
+        ``font_scale`` <= 0 or not finite, ``max_labels`` < 1, a colour outside 0..255,
+        or a ``gap`` that makes the picture larger than 2**30 pixels
+        (:class:`~hopmatch.errors.BudgetExceededError`, refused before any allocation).
     InvalidTypeError
-        ``matches`` are neither DMatches nor integer pairs.
+        ``matches`` are neither DMatches nor integer pairs; ``gap`` or ``max_labels`` is
+        not an integer, ``font_scale`` not a number, a colour not a sequence of numbers.
 
     See Also
     --------
@@ -234,31 +249,25 @@ def draw_labelled_matches(left, right, kps_l, kps_r, matches, *, draw_lines: boo
     >>> fig7[10, 20].tolist(), fig7[10, 50 + 14].tolist()    # match 1 on both sides
     ([0, 0, 255], [0, 0, 255])
     """
+    gap = as_int(gap, "gap", lo=0)
+    font_scale = as_real(font_scale, "font_scale", lo=0.0, lo_open=True)
+    colour, text_colour = as_colour(color, "color"), as_colour(label_color, "label_color")
+    max_labels = as_int(max_labels, "max_labels", lo=1, optional=True)
     img_l, img_r = as_display_image(left, "left"), as_display_image(right, "right")
     kl = drawable_points(kps_l, "kps_l")
     kr = drawable_points(kps_r, "kps_r")
     pairs = as_index_pairs(matches, len(kl), len(kr))
-    gap = int(gap)
-    if gap < 0:
-        raise InvalidArgumentError(f"`gap` must be >= 0 pixels, got {gap}")
-    if not (np.isfinite(font_scale) and font_scale > 0):
-        raise InvalidArgumentError(f"`font_scale` must be > 0, got {font_scale}")
     hl, wl = img_l.shape[:2]
     hr, wr = img_r.shape[:2]
+    check_canvas(max(hl, hr), wl + gap + wr, "gap", gap)
     picture = np.zeros((max(hl, hr), wl + gap + wr, 3), np.uint8)
     picture[:hl, :wl] = img_l
     picture[:hr, wl + gap:] = img_r
     offset = wl + gap
-    colour = tuple(int(c) for c in color)
-    text_colour = tuple(int(c) for c in label_color)
     numbers = np.arange(1, len(pairs) + 1)
-    if max_labels is not None:
-        max_labels = int(max_labels)
-        if max_labels < 1:
-            raise InvalidArgumentError(f"`max_labels` must be >= 1, got {max_labels}")
-        if len(pairs) > max_labels:
-            keep = np.sort(spread_subset(kl[pairs[:, 0]], max_labels, hl))
-            pairs, numbers = pairs[keep], numbers[keep]
+    if max_labels is not None and len(pairs) > max_labels:
+        keep = np.sort(spread_subset(kl[pairs[:, 0]], max_labels, hl))
+        pairs, numbers = pairs[keep], numbers[keep]
     ends_l = np.rint(kl[pairs[:, 0]]).astype(np.int64).tolist()
     ends_r = (np.rint(kr[pairs[:, 1]]).astype(np.int64) + [offset, 0]).tolist()
     ends = [(tuple(a), tuple(b)) for a, b in zip(ends_l, ends_r)]

@@ -19,16 +19,20 @@ disparity of the scale, far; dark red: the largest, near), the scale chosen by
 from __future__ import annotations
 
 import math
+import numbers
 
 import cv2
 import numpy as np
 
-from .._validate import as_points
-from ..errors import InvalidArgumentError
+from .._validate import as_array, as_int, as_points, as_real, describe
+from ..errors import InvalidArgumentError, InvalidTypeError
 from .draw import (
     as_disparities,
     as_display_image,
+    as_draw_size,
+    as_flags,
     as_index_pairs,
+    check_canvas,
     disparity_colours,
     drawable_points,
 )
@@ -61,9 +65,21 @@ _DIM = 0.75           # grey background brightness, so that the colours stand ou
 # --------------------------------------------------------------------------------------
 
 
+#: Most ticks :func:`nice_ticks` gives (a colour bar has at most 8).
+MAX_TICKS = 1000
+
+
 def nice_ticks(lo: float, hi: float, max_ticks: int = 6) -> list[float]:
     """Round tick values in ``[lo, hi]`` (steps of 1, 2 or 5 x 10^k), at most
-    ``max_ticks`` of them, ``lo`` and ``hi`` included when they are round.
+    ``max_ticks`` of them, ``lo`` and ``hi`` included when they are round. ``[lo]`` when
+    the range is empty or not finite, ``[lo, hi]`` when it is too wide for a float.
+
+    Raises
+    ------
+    InvalidTypeError
+        ``lo`` or ``hi`` is not a number, or ``max_ticks`` not an integer.
+    InvalidArgumentError
+        ``max_ticks`` is above :data:`MAX_TICKS` (each tick is a label to draw).
 
     Examples
     --------
@@ -72,9 +88,15 @@ def nice_ticks(lo: float, hi: float, max_ticks: int = 6) -> list[float]:
     >>> nice_ticks(16, 111, 4)
     [50.0, 100.0]
     """
+    for name, value in (("lo", lo), ("hi", hi)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise InvalidTypeError(f"`{name}` must be a number, got {describe(value)}",
+                                   argument=name)
+    max_ticks = max(2, as_int(max_ticks, "max_ticks", lo=0, hi=MAX_TICKS))
     if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
         return [float(lo)]
-    max_ticks = max(2, int(max_ticks))
+    if not np.isfinite(hi - lo):  # e.g. (-1e308, 1e308): no step of 10^k in a float
+        return [float(lo), float(hi)]
     raw = (hi - lo) / (max_ticks - 1)
     mag = 10.0 ** math.floor(math.log10(raw))
     for m in (1, 2, 5, 10):
@@ -91,6 +113,15 @@ def disparity_scale(disparities, min_disparity=None, max_disparity=None) -> tupl
     disparity)`` and ``hi`` = the 99.5th percentile of the disparities (a few outliers do
     not squeeze the colours of all the others; larger values get the top colour), rounded
     up to half its power of ten (61 -> 65, 12 -> 15). ``(0, 1)`` without disparities.
+    NaN and infinite disparities are left out.
+
+    Raises
+    ------
+    InvalidTypeError
+        ``disparities`` are not numbers, or a bound is not a number.
+    InvalidArgumentError
+        A bound is not finite, or the scale is too wide for a float (``hi - lo`` beyond
+        the float range).
 
     Examples
     --------
@@ -99,23 +130,30 @@ def disparity_scale(disparities, min_disparity=None, max_disparity=None) -> tupl
     >>> disparity_scale([3.0, 12.5], 0, 64)
     (0.0, 64.0)
     """
-    d = np.asarray(disparities, np.float64).reshape(-1)
+    min_disparity = as_real(min_disparity, "min_disparity", optional=True)
+    max_disparity = as_real(max_disparity, "max_disparity", optional=True)
+    d = as_array(disparities, "disparities", "an array of disparities", finite=False)
+    d = d.reshape(-1)
     d = d[np.isfinite(d)]
-    lo = float(min_disparity) if min_disparity is not None else (
+    lo = min_disparity if min_disparity is not None else (
         min(0.0, math.floor(float(d.min()))) if d.size else 0.0)
     if max_disparity is not None:
-        hi = float(max_disparity)
+        hi = max_disparity
     elif d.size:
         top = float(np.percentile(d, 99.5))
-        if top > lo:
+        if not math.isfinite(top - lo):
+            hi = math.inf  # refused below
+        elif top > lo:
             unit = 10.0 ** math.floor(math.log10(top - lo)) / 2.0
             hi = math.ceil((top - lo) / unit - 1e-9) * unit + lo
         else:
             hi = lo + 1.0
     else:
         hi = lo + 1.0
-    if not (np.isfinite(lo) and np.isfinite(hi)):
-        raise InvalidArgumentError(f"the disparity scale must be finite, got [{lo}, {hi}]")
+    if not (np.isfinite(lo) and np.isfinite(hi) and np.isfinite(hi - lo)):
+        raise InvalidArgumentError(
+            f"the disparity scale must be finite, got [{lo}, {hi}]; give `min_disparity` "
+            "and `max_disparity` less than a float's range apart")
     return lo, max(hi, lo + 1e-6)
 
 
@@ -146,14 +184,26 @@ def draw_colour_bar(length: int, lo: float, hi: float, *, vertical: bool = True,
 
     Vertical (for beside a picture): ``(length, 80, 3)``, ``hi`` at the top, the title on
     two lines above the bar and ``footer`` (if any) below it. Horizontal (for a caption):
-    ``(34, length, 3)``, ``lo`` at the left, the title after the bar.
+    ``(34, length, 3)``, ``lo`` at the left, the title after the bar. What does not fit is
+    left out: the bar when shorter than 8 px (a vertical panel keeps its title, a
+    horizontal one is a plain strip), the title, and tick labels that would overlap.
+
+    Raises
+    ------
+    InvalidTypeError
+        ``length`` is not an integer, ``lo`` or ``hi`` not a number, ``title`` or
+        ``footer`` not a string.
+    InvalidArgumentError
+        ``length`` < 1 or a panel beyond :data:`~hopmatch._validate.MAX_IMAGE_PIXELS`;
+        ``lo`` or ``hi`` not finite, or ``hi <= lo``.
 
     Examples
     --------
     >>> draw_colour_bar(200, 0, 66).shape, draw_colour_bar(300, 0, 66, vertical=False).shape
     ((200, 80, 3), (34, 300, 3))
     """
-    length = int(length)
+    length = _check_colour_bar(length, lo, hi, vertical, title, footer)
+    lo, hi = float(lo), float(hi)
     if vertical:
         panel = np.full((length, _PANEL_W, 3), _PANEL, np.uint8)
         words = title.split(" ", 1)
@@ -167,24 +217,54 @@ def draw_colour_bar(length: int, lo: float, hi: float, *, vertical: bool = True,
         values = np.linspace(hi, lo, bottom - top)
         panel[top:bottom, 6:6 + _BAR_W] = disparity_colours(values, lo, hi)[:, None, :]
         n_ticks = max(2, min(8, (bottom - top) // 28))
+        free = length  # the labels go up: first row above the last label written
         for t in nice_ticks(lo, hi, n_ticks):
             y = top + int(round((hi - t) / (hi - lo) * (bottom - top - 1)))
             cv2.line(panel, (6 + _BAR_W, y), (6 + _BAR_W + 4, y), _TEXT, 1)
-            _text(panel, _label(t), 6 + _BAR_W + 7, y + 4, 0.4)
+            if y + 4 < free:  # never over the previous label
+                _text(panel, _label(t), 6 + _BAR_W + 7, y + 4, 0.4)
+                free = y + 4 - 12
         return panel
     panel = np.full((34, length, 3), _PANEL, np.uint8)
     title_w = _text_width(title, 0.4) + 12
     bar = max(40, length - title_w - 16)
+    if 8 + bar + 8 > length:  # a narrow caption: the bar fills what there is
+        bar = length - 16
+    if bar < 8:  # too narrow for a bar: a plain strip
+        return panel
     values = np.linspace(lo, hi, bar)
     panel[4:4 + 12, 8:8 + bar] = disparity_colours(values, lo, hi)[None, :, :]
+    free = 0  # first column after the last label written
     for t in nice_ticks(lo, hi, max(2, min(8, bar // 50))):
         x = 8 + int(round((t - lo) / (hi - lo) * (bar - 1)))
         cv2.line(panel, (x, 16), (x, 19), _TEXT, 1)
         w = _text_width(_label(t), 0.4)
-        _text(panel, _label(t), min(max(x - w // 2, 0), length - w - 1), 31, 0.4)
+        left = min(max(x - w // 2, 0), length - w - 1)
+        if left >= free:  # never over the previous label, nor cut at the left
+            _text(panel, _label(t), left, 31, 0.4)
+            free = left + w + 4
     if 8 + bar + 8 + title_w - 12 <= length:
         _text(panel, title, 8 + bar + 8, 15, 0.4)
     return panel
+
+
+def _check_colour_bar(length, lo, hi, vertical: bool, title, footer) -> int:
+    """The checks of :func:`draw_colour_bar`'s arguments; returns ``length`` as an int."""
+    length = as_int(length, "length", lo=1)
+    if vertical:
+        check_canvas(length, _PANEL_W, "length", length)
+    else:
+        check_canvas(34, length, "length", length)
+    lo, hi = as_real(lo, "lo"), as_real(hi, "hi")
+    if not (hi > lo and math.isfinite(hi - lo)):
+        raise InvalidArgumentError(
+            f"`hi` must be greater than `lo` by a finite amount, got lo={lo!r}, hi={hi!r}",
+            argument="hi")
+    for name, text in (("title", title), ("footer", footer)):
+        if not isinstance(text, str):
+            raise InvalidTypeError(f"`{name}` must be a string, got {describe(text)}",
+                                   argument=name)
+    return length
 
 
 # --------------------------------------------------------------------------------------
@@ -198,7 +278,15 @@ def spread_subset(points, n: int, height: int | None = None) -> np.ndarray:
     The rows are cut into ``n`` bands of equal height (at least 6 px); each band gives the
     point nearest to a target column that moves across the width from band to band (by the
     golden ratio), so that lines of a rectified pair, nearly horizontal, neither lie on one
-    another nor start at one column. Deterministic; sorted by row.
+    another nor start at one column. Deterministic; sorted by row. ``n <= 0`` gives none;
+    ``height`` (>= 0, default the lowest point's row + 1) sets the bands.
+
+    Raises
+    ------
+    InvalidTypeError
+        ``n`` is not an integer, or ``height`` not a number.
+    InvalidArgumentError
+        ``height`` is negative or not finite, or ``points`` are not (x, y) points.
 
     Examples
     --------
@@ -209,11 +297,12 @@ def spread_subset(points, n: int, height: int | None = None) -> np.ndarray:
     (10, 10)
     """
     pts = as_points(points, "points")
-    n = int(n)
+    n = as_int(n, "n")
+    height = as_real(height, "height", lo=0.0, optional=True)
     if n <= 0 or len(pts) == 0:
         return np.zeros(0, np.int64)
     top = float(pts[:, 1].max()) + 1.0
-    h = float(height) if height is not None else top
+    h = height if height is not None else top
     band = max(6.0, h / n)
     rows = np.floor(pts[:, 1] / band).astype(np.int64)
     x_lo, x_hi = float(pts[:, 0].min()), float(pts[:, 0].max())
@@ -273,9 +362,14 @@ def _wrap(text: str, width: int, scale: float = _FONT_SCALE) -> list[str]:
 
 
 def _caption(width: int, paragraphs: list[str], lo: float, hi: float) -> np.ndarray:
-    """Text (wrapped to ``width``) over a horizontal colour bar, on a dark strip."""
+    """Text (wrapped to ``width``) over a horizontal colour bar, on a dark strip. The text
+    is left out when one of its words is wider than the strip (pictures a few pixels
+    wide: every line would be cut), the bar when it does not fit (:func:`draw_colour_bar`).
+    """
     lines = [ln for par in paragraphs for ln in _wrap(par, width - 12)]
-    strip = np.full((len(lines) * _LINE_H + 8, width, 3), _PANEL, np.uint8)
+    if any(_text_width(ln) > width - 12 for ln in lines):
+        lines = []
+    strip = np.full((len(lines) * _LINE_H + 8 if lines else 0, width, 3), _PANEL, np.uint8)
     for k, line in enumerate(lines):
         _text(strip, line, 6, 16 + k * _LINE_H)
     bar = draw_colour_bar(min(width, 420), lo, hi, vertical=False)
@@ -307,16 +401,24 @@ def draw_match_overview(left, right, kps_l, kps_r, matches, disparities=None, *,
         with a magenta cross (:data:`WRONG`) on both images, and the caption gives the
         precision.
     max_lines : int, optional
-        How many matches get a line (:func:`spread_subset`); default one per 8 rows of the
-        taller image, at most 100.
+        How many matches get a line (:func:`spread_subset`), >= 0; default one per 8 rows
+        of the taller image, at most 100.
     min_disparity, max_disparity : float, optional
         The colour scale; default :func:`disparity_scale` of the disparities.
 
     Returns
     -------
     (max(Hl, Hr) + caption, Wl + Wr, 3) uint8 ndarray
-        BGR picture; the caption is the counts (wrapped to the width, 18 px a line) and a
-        colour bar (34 px).
+        BGR picture; the caption is the counts (wrapped to the width, 18 px a line; left
+        out when the picture is too narrow for a word of them) and a colour bar (34 px;
+        a plain strip when too narrow for a bar: images of any size give a picture).
+
+    Raises
+    ------
+    InvalidArgumentError, InvalidTypeError
+        An image, the keypoints, the matches, the disparities, the flags, ``max_lines`` or
+        a bound of the scale are not of the kinds above, or a match refers to a keypoint
+        that does not exist.
 
     Examples
     --------
@@ -326,9 +428,14 @@ def draw_match_overview(left, right, kps_l, kps_r, matches, disparities=None, *,
     >>> draw_match_overview(img, img, pts, pts - [5, 0], [[0, 0], [1, 1]]).shape[1:]
     (160, 3)
     """
+    max_lines = as_int(max_lines, "max_lines", lo=0, optional=True)
     img_l, img_r = _grey(left, "left"), _grey(right, "right")
     kl, kr = drawable_points(kps_l, "kps_l"), drawable_points(kps_r, "kps_r")
     pairs = as_index_pairs(matches, len(kl), len(kr))
+    if correct is not None:
+        correct = as_flags(correct, "correct", len(pairs))
+        known = np.ones(len(pairs), bool) if known is None else \
+            as_flags(known, "known", len(pairs))
     ml, mr = kl[pairs[:, 0]], kr[pairs[:, 1]]
     d = (ml[:, 0] - mr[:, 0]).astype(np.float64) if disparities is None else \
         as_disparities(disparities, "disparities", len(pairs), "match", finite=False)
@@ -356,12 +463,6 @@ def draw_match_overview(left, right, kps_l, kps_r, matches, disparities=None, *,
     text = [f"{len(pairs)} matches, coloured by disparity: {len(lines)} spread over the "
             f"rows drawn as lines, every match as a dot"]
     if correct is not None:
-        correct = np.asarray(correct, bool).reshape(-1)
-        known = np.ones(len(pairs), bool) if known is None else \
-            np.asarray(known, bool).reshape(-1)
-        if correct.shape != (len(pairs),) or known.shape != (len(pairs),):
-            raise InvalidArgumentError(
-                f"`correct` and `known` must have one flag per match ({len(pairs)})")
         wrong = known & ~correct
         for i in np.flatnonzero(wrong).tolist():
             for p, dx in ((ml[i], 0), (mr[i], wl)):
@@ -392,7 +493,8 @@ def draw_keypoint_disparities(left, points, disparities, *, min_disparity=None,
     min_disparity, max_disparity : float, optional
         The colour scale; default :func:`disparity_scale` of the disparities.
     radius : int
-        Dot radius in pixels (each dot has a dark rim one pixel wider).
+        Dot radius in pixels (each dot has a dark rim one pixel wider), in
+        ``[0, MAX_DRAW_SIZE]`` (:data:`hopmatch.viz.draw.MAX_DRAW_SIZE`).
 
     Returns
     -------
@@ -400,17 +502,24 @@ def draw_keypoint_disparities(left, points, disparities, *, min_disparity=None,
         BGR picture: the image, then the colour-bar panel (title "disparity (px)", round
         ticks, the number of points below).
 
+    Raises
+    ------
+    InvalidArgumentError, InvalidTypeError
+        The image, the points, the disparities, ``radius`` or a bound of the scale are not
+        of the kinds above.
+
     Examples
     --------
     >>> import numpy as np
     >>> draw_keypoint_disparities(np.zeros((60, 80), np.uint8), [[5, 5]], [3.0]).shape
     (60, 160, 3)
     """
+    radius = as_draw_size(radius, "radius")
     img = _grey(left, "left")
     pts = drawable_points(points, "points")
     d = as_disparities(disparities, "disparities", pts.shape[0])
     lo, hi = disparity_scale(d, min_disparity, max_disparity)
     order = np.argsort(d, kind="stable")  # the nearest (largest disparity) on top
-    _dots(img, pts[order], disparity_colours(d[order], lo, hi), int(radius))
+    _dots(img, pts[order], disparity_colours(d[order], lo, hi), radius)
     panel = draw_colour_bar(img.shape[0], lo, hi, footer=f"{len(d)} pts")
     return np.hstack([img, panel])

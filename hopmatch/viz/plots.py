@@ -8,19 +8,24 @@ global state and backend are never touched.
 Each plot comes in two forms: ``render_*`` returns the encoded file as bytes (``fmt``:
 ``"png"``, ``"pdf"``, ``"svg"``...), and ``plot_*`` writes it atomically
 (:func:`hopmatch.files.write_bytes_atomic`) to a path whose suffix picks the format.
+Before anything is plotted, ``plot_*`` refuse a ``path`` that is not a ``str`` or
+``os.PathLike`` (``InvalidTypeError``), whose folder is missing
+(:class:`~hopmatch.errors.FileWriteError`) or whose suffix names no format matplotlib
+writes (``InvalidArgumentError``), and ``render_*`` such a ``fmt``.
 """
 
 from __future__ import annotations
 
 import io
+import os
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
-from .._validate import describe
+from .._validate import as_array, as_real, describe
 from ..errors import InvalidArgumentError, InvalidTypeError
-from ..files import write_bytes_atomic
+from ..files import check_output_path, write_bytes_atomic
 
 __all__ = [
     "ERROR_BINS",
@@ -76,9 +81,53 @@ def _encode(fig, fmt: str, *, tight_box: bool = True) -> bytes:
     return buf.getvalue()
 
 
+def _as_path(path) -> Path:
+    """``path`` (a ``str`` or ``os.PathLike``) as a Path that a file can be written to
+    (:func:`hopmatch.files.check_output_path`), checked before anything is plotted."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise InvalidTypeError(f"`path` must be a str or os.PathLike, got {describe(path)}",
+                               argument="path")
+    return check_output_path(path)
+
+
 def _format_of(path: Path) -> str:
-    """The format named by ``path``'s suffix (``"png"`` without one)."""
-    return path.suffix.lstrip(".").lower() or "png"
+    """The format named by ``path``'s suffix (``"png"`` without one), checked by
+    :func:`_check_format` under the name ``path``."""
+    return _check_format(path.suffix.lstrip(".").lower() or "png", "path")
+
+
+def _check_format(fmt, name: str = "fmt") -> str:
+    """``fmt`` if matplotlib can save a figure in it (``"png"``, ``"pdf"``, ``"svg"``...).
+
+    Raises ``InvalidTypeError`` (not a string) or ``InvalidArgumentError`` (a format
+    matplotlib does not write, listing those it does) naming ``name``, and ``ImportError``
+    when matplotlib is missing.
+    """
+    if not isinstance(fmt, str):
+        raise InvalidTypeError(f"`{name}` must be a format name such as 'png', got "
+                               f"{describe(fmt)}", argument=name)
+    try:
+        from matplotlib.backend_bases import FigureCanvasBase
+    except ImportError:
+        raise ImportError(
+            "plotting needs matplotlib: pip install hopmatch[all] (or pip install matplotlib)"
+        ) from None
+    known = FigureCanvasBase.get_supported_filetypes()
+    if fmt not in known:
+        what = f"the suffix of `{name}`" if name == "path" else f"`{name}`"
+        raise InvalidArgumentError(
+            f"{what} must name a format matplotlib writes ({', '.join(sorted(known))}), "
+            f"got {fmt!r}", argument=name)
+    return fmt
+
+
+def _as_rows(rows) -> list:
+    """``rows`` (an iterable of mappings, checked by the caller) as a list."""
+    if isinstance(rows, (str, bytes, Mapping)) or not hasattr(rows, "__iter__"):
+        raise InvalidTypeError(
+            f"`rows` must be an iterable of mappings (as hopmatch.compare returns), got "
+            f"{describe(rows)}", argument="rows")
+    return list(rows)
 
 
 def _tab_colours(n: int) -> list:
@@ -99,11 +148,16 @@ def render_energy(trace, fmt: str = "png") -> bytes:
 
     Raises
     ------
+    InvalidTypeError
+        ``trace`` is not numbers, or ``fmt`` not a string.
+    InvalidArgumentError
+        ``fmt`` is not a format matplotlib writes.
     ImportError
         matplotlib is not installed (``pip install hopmatch[all]``).
     """
     fig = _figure((6.4, 3.6), "plotting the energy")
-    trace = np.asarray(trace, dtype=np.float64).reshape(-1)
+    fmt = _check_format(fmt)
+    trace = as_array(trace, "trace", "an array of energies", finite=False).reshape(-1)
     ax = fig.add_subplot(1, 1, 1)
     if trace.size:
         ax.plot(np.arange(1, trace.size + 1), trace, lw=1.0, color="tab:blue")
@@ -137,7 +191,7 @@ def plot_energy(trace, path) -> Path:
     ImportError
         matplotlib is not installed (``pip install hopmatch[all]``).
     """
-    path = Path(path)
+    path = _as_path(path)
     write_bytes_atomic(path, render_energy(trace, _format_of(path)))
     return path
 
@@ -154,12 +208,17 @@ def render_precision_vs_correct(rows, threshold: float = 1.0, fmt: str = "png",
     Raises
     ------
     InvalidArgumentError
-        A row is not a mapping with ``method``, ``correct@t`` and ``precision@t``.
+        A row is not a mapping with ``method``, ``correct@t`` and ``precision@t``;
+        ``threshold`` is not finite; ``fmt`` is not a format matplotlib writes.
+    InvalidTypeError
+        ``rows`` is not an iterable, ``threshold`` not a number, ``fmt`` not a string.
     ImportError
         matplotlib is not installed (``pip install hopmatch[all]``).
     """
+    threshold = as_real(threshold, "threshold")
+    fmt = _check_format(fmt)
     key_c, key_p = f"correct@{threshold:g}", f"precision@{threshold:g}"
-    rows = list(rows)
+    rows = _as_rows(rows)
     for row in rows:
         if not isinstance(row, Mapping) or not {"method", key_c, key_p} <= set(row):
             raise InvalidArgumentError(
@@ -222,7 +281,7 @@ def plot_precision_vs_correct(rows, path, threshold: float = 1.0,
     ImportError
         matplotlib is not installed (``pip install hopmatch[all]``).
     """
-    path = Path(path)
+    path = _as_path(path)
     write_bytes_atomic(path, render_precision_vs_correct(rows, threshold, _format_of(path),
                                                          title))
     return path
@@ -237,12 +296,16 @@ def render_precision_curves(rows, fmt: str = "png", title: str | None = None) ->
     Raises
     ------
     InvalidArgumentError
-        A row is not a mapping with those keys.
+        A row is not a mapping with those keys, or ``fmt`` is not a format matplotlib
+        writes.
+    InvalidTypeError
+        ``rows`` is not an iterable, or ``fmt`` not a string.
     ImportError
         matplotlib is not installed (``pip install hopmatch[all]``).
     """
+    fmt = _check_format(fmt)
     keys = {"method", "parameter", "value", "correct@1", "precision@1"}
-    rows = list(rows)
+    rows = _as_rows(rows)
     for row in rows:
         if not isinstance(row, Mapping) or not keys <= set(row):
             raise InvalidArgumentError(
@@ -279,7 +342,7 @@ def render_precision_curves(rows, fmt: str = "png", title: str | None = None) ->
 def plot_precision_curves(rows, path, title: str | None = None) -> Path:
     """:func:`render_precision_curves` saved (atomically) to ``path``; its suffix picks the
     format. Returns the path."""
-    path = Path(path)
+    path = _as_path(path)
     write_bytes_atomic(path, render_precision_curves(rows, _format_of(path), title))
     return path
 
@@ -291,12 +354,15 @@ def render_error_histogram(errors_by_method, bins=ERROR_BINS, fmt: str = "png",
     Raises
     ------
     InvalidTypeError
-        ``errors_by_method`` is not a mapping.
+        ``errors_by_method`` is not a mapping, or ``fmt`` not a string.
+    InvalidArgumentError
+        ``fmt`` is not a format matplotlib writes.
     ImportError
         matplotlib is not installed (``pip install hopmatch[all]``).
     """
     from ..evaluate import error_histogram  # scipy, only when a histogram is drawn
 
+    fmt = _check_format(fmt)
     if not isinstance(errors_by_method, Mapping):
         raise InvalidTypeError(
             "`errors_by_method` must be a mapping {method name: errors}, got "
@@ -354,7 +420,7 @@ def plot_error_histogram(errors_by_method, path, bins=ERROR_BINS,
     ImportError
         matplotlib is not installed (``pip install hopmatch[all]``).
     """
-    path = Path(path)
+    path = _as_path(path)
     write_bytes_atomic(path, render_error_histogram(errors_by_method, bins, _format_of(path),
                                                     title))
     return path
