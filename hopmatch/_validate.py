@@ -66,7 +66,13 @@ def _to_float32(arr: np.ndarray, name: str, what: str) -> np.ndarray:
             )
     with np.errstate(over="ignore", invalid="ignore"):
         out = np.ascontiguousarray(arr, dtype=np.float32)
-    return out
+    return writable(out)
+
+
+def writable(arr: np.ndarray) -> np.ndarray:
+    """``arr``, or a copy of it when it is read-only: Numba compiles a kernel again (seconds
+    on a first call) for a read-only array, a type of its own."""
+    return arr if arr.flags.writeable else arr.copy()
 
 
 def check_pixel_budget(shape, max_pixels: int | None, name: str = "image") -> None:
@@ -224,14 +230,19 @@ def keypoint_positions(keypoints, name: str) -> np.ndarray:
     """
     seq = keypoints if isinstance(keypoints, (list, tuple)) else list(keypoints)
     try:
-        return np.asarray(cv2.KeyPoint_convert(seq), dtype=np.float32).reshape(-1, 2)
+        out = np.asarray(cv2.KeyPoint_convert(seq), dtype=np.float32).reshape(-1, 2)
     except cv2.error:
-        bad = next((kp for kp in seq if not isinstance(kp, cv2.KeyPoint)), None)
-        if bad is None:
-            raise
+        out = None
+    # cv2 reads a None as a keypoint at (0, 0): look for one only where such a point is
+    if out is None or (not (out != 0).any(axis=1).all() and None in seq):
+        bad = [kp for kp in seq if not isinstance(kp, cv2.KeyPoint)][:1]
+        if not bad:
+            raise InvalidTypeError(f"`{name}`: cv2.KeyPoint_convert could not read these "
+                                   "keypoints")
         raise InvalidTypeError(
-            f"`{name}` mixes cv2.KeyPoint with other objects (a {type(bad).__name__})"
+            f"`{name}` mixes cv2.KeyPoint with other objects (a {type(bad[0]).__name__})"
         ) from None
+    return out
 
 
 def check_coordinate_range(points: np.ndarray, name: str, limit: float = MAX_COORDINATE):
@@ -263,7 +274,7 @@ def as_descriptors(desc, name: str) -> np.ndarray:
             "one value (was it computed with a zero-size window?)"
         )
     if desc.dtype == np.uint8:
-        return np.ascontiguousarray(desc)
+        return writable(np.ascontiguousarray(desc))
     if desc.dtype == np.bool_ or not np.issubdtype(desc.dtype, np.number) or np.issubdtype(
             desc.dtype, np.complexfloating):
         raise InvalidTypeError(
@@ -358,6 +369,18 @@ def as_int(value, name: str, *, lo: int | None = None, hi: int | None = None,
 
 
 # -- matrices --------------------------------------------------------------------------------
+
+
+def as_flag(value, name: str) -> bool:
+    """``value`` as a bool: True, False, NumPy's bools, or the integers 0 and 1 (as cv2's
+    Python bindings take a ``bool`` argument); anything else, a string such as ``"no"``
+    included, is an :class:`InvalidTypeError` naming ``name``."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, numbers.Integral) and int(value) in (0, 1):
+        return bool(value)
+    raise InvalidTypeError(f"`{name}` must be True or False, got {describe(value)}",
+                           argument=name)
 
 
 def as_array(value, name: str, what: str = "a numeric array", *, finite: bool = True,

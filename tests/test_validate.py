@@ -71,3 +71,56 @@ def test_denormal_alpha_is_the_deriche_error_not_an_overflow(alpha):
     img = np.random.default_rng(0).integers(0, 255, (40, 40), dtype=np.uint8)
     with pytest.raises(InvalidArgumentError, match="alpha"):
         hopmatch.DericheMoravecDetector(alpha=alpha).detect(img)
+
+
+def test_boolean_arguments_take_bools_and_0_or_1_only():
+    """record_energy='x', compactResult='no' and useProvidedKeypoints='yes' were all read
+    as True (a non-empty string is truthy)."""
+    import cv2
+
+    from hopmatch._validate import as_flag
+    from hopmatch.errors import InvalidTypeError
+
+    assert [as_flag(v, "f") for v in (True, False, np.bool_(True), 0, 1, np.int64(1))] == \
+        [True, False, True, False, True, True]
+    for bad in ("no", "x", 2, 0.5, None, [True]):
+        with pytest.raises(InvalidTypeError, match="`f` must be True or False"):
+            as_flag(bad, "f")
+    rng = np.random.default_rng(0)
+    img = cv2.GaussianBlur((rng.random((60, 80)) * 255).astype(np.uint8), (0, 0), 1.0)
+    det = hopmatch.DericheMoravecDetector()
+    with pytest.raises(InvalidTypeError, match="useProvidedKeypoints"):
+        det.detectAndCompute(img, None, useProvidedKeypoints="yes")
+    with pytest.raises(InvalidTypeError, match="record_energy"):
+        hopmatch.match_stereo(img, np.roll(img, -3, axis=1), record_energy="x")
+    kp, desc = det.detectAndCompute(img, None)
+    m = hopmatch.HopfieldMatcher.create(max_disparity=8)
+    m.setPairInfo(kp, kp, (80, 60), (80, 60))
+    for call in (m.knnMatch, m.radiusMatch):
+        with pytest.raises(InvalidTypeError, match="compactResult"):
+            call(desc, desc, 1, compactResult="no")
+
+
+def test_a_none_among_keypoints_is_named_not_read_as_a_point_at_the_origin():
+    """cv2.KeyPoint_convert reads None as a keypoint at (0, 0)."""
+    import cv2
+
+    from hopmatch._validate import as_points
+    from hopmatch.errors import InvalidTypeError
+
+    with pytest.raises(InvalidTypeError, match="NoneType"):
+        as_points([cv2.KeyPoint(1, 2, 3), None, cv2.KeyPoint(4, 5, 3)], "keypoints")
+    at_origin = as_points([cv2.KeyPoint(0, 0, 3), cv2.KeyPoint(4, 5, 3)], "keypoints")
+    assert at_origin.tolist() == [[0.0, 0.0], [4.0, 5.0]]
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.uint8, np.float64])
+def test_read_only_descriptors_and_points_come_back_writable(dtype):
+    """Numba compiles its kernels again, seconds on a first call, for read-only arrays."""
+    from hopmatch._validate import as_descriptors, as_points
+
+    desc = np.ones((4, 9), dtype)
+    desc.flags.writeable = False
+    pts = np.ones((4, 2), np.float32)
+    pts.flags.writeable = False
+    assert as_descriptors(desc, "d").flags.writeable and as_points(pts, "p").flags.writeable

@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 
 from .._params import Configurable, Param, boolean, choice, integer, real
-from .._validate import DEFAULT_MAX_PIXELS, as_gray_image, as_mask, as_points
+from .._validate import DEFAULT_MAX_PIXELS, as_flag, as_gray_image, as_mask, as_points
 from ..errors import InvalidArgumentError, InvalidTypeError
 from .blocking import block_artifact_mask
 from .descriptor import cut_windows, window_inside
@@ -253,7 +253,7 @@ class DericheMoravecDetector(Configurable):
 
         With ``useProvidedKeypoints=True``, describe ``keypoints`` instead of detecting.
         """
-        if useProvidedKeypoints:
+        if as_flag(useProvidedKeypoints, "useProvidedKeypoints"):
             if keypoints is None:
                 raise InvalidArgumentError(
                     "`keypoints` must be given when useProvidedKeypoints=True"

@@ -6,6 +6,7 @@ import numpy as np
 
 from .._kernels import interactions as _ki
 from .._kernels import neighbours as _kn
+from .._validate import as_flag
 from ..errors import BudgetExceededError
 
 #: ``record_energy`` keeps one float64 per allowed iteration: refuse more than this many
@@ -98,8 +99,10 @@ def interaction_capacity(ni, nk, start, nb_off, nb_idx, max_interactions: int) -
 
 
 def check_energy_trace(max_iterations: int, record_energy: bool) -> None:
-    """Refuse ``record_energy`` when its trace (one float64 per allowed iteration) would
-    exceed :data:`MAX_ENERGY_TRACE` entries."""
+    """Refuse ``record_energy`` when it is not a bool (:func:`~hopmatch._validate.as_flag`),
+    or when its trace (one float64 per allowed iteration) would exceed
+    :data:`MAX_ENERGY_TRACE` entries."""
+    record_energy = as_flag(record_energy, "record_energy")
     if record_energy and max_iterations + 1 > MAX_ENERGY_TRACE:
         raise BudgetExceededError(
             f"record_energy=True keeps one float64 per iteration, and max_iterations="

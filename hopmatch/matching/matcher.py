@@ -15,6 +15,7 @@ from .._params import Configurable, state_params
 # matching layer was split, so they stay importable from here.
 from .._validate import (
     as_descriptors,
+    as_flag,
     as_fundamental_matrix,  # noqa: E402, F401
     as_int,
 )
@@ -449,9 +450,10 @@ class HopfieldMatcher(Configurable):
         if k is None:
             raise InvalidTypeError("knnMatch() needs `k`, the number of matches per query")
         k = as_int(k, "k", lo=1)
+        compact = as_flag(compactResult, "compactResult")
         res, pair = self._run(queryDescriptors, trainDescriptors, mask)
         return knn_rows(res, len(pair.query_points), len(pair.train_points), k, mask,
-                        bool(compactResult))
+                        compact)
 
     def radiusMatch(self, queryDescriptors, trainDescriptors=None,  # noqa: N802, N803
                     maxDistance=None, mask=None, compactResult=False):  # noqa: N803
@@ -468,9 +470,9 @@ class HopfieldMatcher(Configurable):
             raise InvalidArgumentError(
                 "`maxDistance` must be a number (distances lie in [0, 1]), got NaN"
             )
+        compact = as_flag(compactResult, "compactResult")
         res, pair = self._run(queryDescriptors, trainDescriptors, mask)
-        return radius_rows(res, len(pair.query_points), float(maxDistance),
-                           bool(compactResult))
+        return radius_rows(res, len(pair.query_points), float(maxDistance), compact)
 
     # -- energy and last result --------------------------------------------------------
     def getLastResult(self) -> NetworkResult | None:  # noqa: N802
