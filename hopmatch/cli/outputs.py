@@ -30,8 +30,21 @@ __all__ = ["Outputs", "Terminated", "image_info", "ms", "read_image", "run_json"
            "signals_deferred", "terminations_as_interrupts", "versions"]
 
 #: The signals a run turns into :class:`Terminated` (SIGINT is Python's KeyboardInterrupt
-#: already) and that :func:`signals_deferred` holds back during the final renames.
-CAUGHT_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n))
+#: already) and that :func:`signals_deferred` holds back during the final renames: every
+#: catchable signal whose default action ends the process (SIGQUIT's core dump included),
+#: but for SIGPIPE (Python ignores it: a closed pipe is a BrokenPipeError) and the faults
+#: of the process itself (SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGSYS, SIGTRAP), which
+#: a handler cannot recover from. Only where the signal still has its default action: a
+#: signal ignored by the parent (``nohup``'s SIGHUP) stays ignored, and one an embedding
+#: program handles stays its own.
+CAUGHT_SIGNALS = tuple(getattr(signal, n) for n in (
+    "SIGTERM", "SIGHUP", "SIGQUIT", "SIGUSR1", "SIGUSR2", "SIGALRM", "SIGVTALRM", "SIGPROF",
+    "SIGXCPU", "SIGXFSZ", "SIGPOLL", "SIGPWR", "SIGSTKFLT") if hasattr(signal, n))
+
+
+def _defaults(signals) -> list[int]:
+    """Those of ``signals`` whose handler is the default action now."""
+    return [s for s in signals if signal.getsignal(s) == signal.SIG_DFL]
 
 
 def read_image(path: str, max_pixels: int | None = DEFAULT_MAX_PIXELS) -> np.ndarray:
@@ -49,13 +62,14 @@ def read_image(path: str, max_pixels: int | None = DEFAULT_MAX_PIXELS) -> np.nda
 
 
 # --------------------------------------------------------------------------------------
-# Signals: SIGTERM/SIGHUP end a run as Ctrl-C does; the final renames are not interrupted
+# Signals: SIGTERM, SIGHUP... end a run as Ctrl-C does; the final renames are not interrupted
 # --------------------------------------------------------------------------------------
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM or SIGHUP arrived: raised in the main thread, so that the run is rolled back
-    as after Ctrl-C (``signum`` says which signal; the exit status is 128 + signum)."""
+    """A signal of :data:`CAUGHT_SIGNALS` (SIGTERM, SIGHUP...) arrived: raised in the main
+    thread, so that the run is rolled back as after Ctrl-C (``signum`` says which signal;
+    the exit status is 128 + signum)."""
 
     def __init__(self, signum: int):
         super().__init__(f"signal {signum}")
@@ -68,8 +82,9 @@ def _raise_terminated(signum, frame):
 
 @contextlib.contextmanager
 def terminations_as_interrupts():
-    """While inside, SIGTERM and SIGHUP raise :class:`Terminated` (a KeyboardInterrupt) in
-    the main thread instead of ending the process at once, so that a run killed that way
+    """While inside, SIGTERM, SIGHUP and the other :data:`CAUGHT_SIGNALS` that still have
+    their default action raise :class:`Terminated` (a KeyboardInterrupt) in the main thread
+    instead of ending the process at once, so that a run killed that way
     removes its staged files. Outside the main thread (where handlers cannot be set) it
     does nothing."""
     if threading.current_thread() is not threading.main_thread():
@@ -77,7 +92,7 @@ def terminations_as_interrupts():
         return
     old = {}
     try:
-        for signum in CAUGHT_SIGNALS:
+        for signum in _defaults(CAUGHT_SIGNALS):
             old[signum] = signal.signal(signum, _raise_terminated)
         yield
     finally:
@@ -87,8 +102,9 @@ def terminations_as_interrupts():
 
 @contextlib.contextmanager
 def signals_deferred():
-    """Hold SIGINT, SIGTERM and SIGHUP back while inside (main thread only): each one that
-    arrives is delivered again, to the handler of before, on the way out. For the few
+    """Hold SIGINT and :data:`CAUGHT_SIGNALS` back while inside (main thread only; an
+    ignored one stays ignored): each one that arrives is delivered again, to the handler of
+    before, on the way out. For the few
     renames that make a run's files appear together."""
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -97,6 +113,8 @@ def signals_deferred():
     old = {}
     try:
         for signum in (signal.SIGINT, *CAUGHT_SIGNALS):
+            if signal.getsignal(signum) in (signal.SIG_IGN, None):  # ignored: stays so
+                continue
             old[signum] = signal.signal(signum, lambda n, f: pending.append(n))
         yield
     finally:

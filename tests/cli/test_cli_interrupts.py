@@ -184,6 +184,40 @@ def test_sigterm_while_matching_removes_the_staged_files(pair, tmp_path):
 
 
 @pytest.mark.skipif(os.name != "posix", reason="POSIX signals")
+@pytest.mark.parametrize("signame", ["SIGQUIT", "SIGUSR1", "SIGALRM"])
+def test_other_terminating_signals_while_matching_remove_the_staged_files(pair, tmp_path,
+                                                                          signame):
+    """SIGQUIT, SIGUSR1, SIGALRM... end a process too: they left the staging folder (with a
+    partial matches.csv) behind, one more per run."""
+    out = tmp_path / "new" / "out"
+    flag = tmp_path / "matching"
+    proc = _start(pair, out, flag, *ARGS)
+    _wait_for(flag, proc)
+    signum = getattr(signal, signame)
+    proc.send_signal(signum)
+    proc.wait(60)
+    assert proc.returncode == 128 + signum
+    assert "hopmatch: interrupted" in proc.stderr.read()
+    assert files_in(tmp_path) == ["matching"]
+
+
+@pytest.mark.skipif(os.name != "posix", reason="POSIX signals")
+def test_an_ignored_sighup_stays_ignored(pair, tmp_path):
+    """Under nohup (SIGHUP ignored by the parent) a run goes on through a SIGHUP."""
+    out = tmp_path / "out"
+    flag = tmp_path / "matching"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", "import signal; signal.signal(signal.SIGHUP, signal.SIG_IGN)\n"
+         + SLOW, str(flag), "-q", "match", str(pair["left"]), str(pair["right"]), "-o",
+         str(out)], stderr=subprocess.PIPE, text=True)
+    _wait_for(flag, proc)
+    proc.send_signal(signal.SIGHUP)
+    proc.wait(120)
+    assert proc.returncode == 0, proc.stderr.read()
+    assert (out / "run.json").is_file()
+
+
+@pytest.mark.skipif(os.name != "posix", reason="POSIX signals")
 def test_sigkill_among_the_renames_never_leaves_a_run_json_of_mixed_files(pair, tmp_path):
     """SIGKILL cannot be caught: in a reused folder the renames may stop halfway, but the
     old run.json is set aside first and the new one placed last, so a run.json present
