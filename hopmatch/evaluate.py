@@ -50,6 +50,11 @@ def _as_disparity(disparity, name: str = "disparity_gt") -> np.ndarray:
     return np.ascontiguousarray(disparity, dtype=np.float32)
 
 
+#: Widest tolerance (px) of the recall of :func:`score_matches`: it enumerates the keypoint
+#: pairs within it, as many as every pair of a dense image beyond a few hundred pixels.
+MAX_RECALL_TOLERANCE = 64.0
+
+
 def _thresholds(thresholds) -> tuple[float, ...]:
     if isinstance(thresholds, numbers.Real) and not isinstance(thresholds, bool):
         thresholds = (thresholds,)
@@ -249,8 +254,8 @@ def score_matches(
     ------
     InvalidArgumentError, InvalidTypeError
         Wrong shapes (the message gives expected and actual), unequal numbers of left and
-        right points, non-finite coordinates, non-positive thresholds, or only one of the
-        keypoint sets.
+        right points, non-finite coordinates, non-positive thresholds, only one of the
+        keypoint sets, or with them a tolerance beyond :data:`MAX_RECALL_TOLERANCE`.
 
     Examples
     --------
@@ -290,13 +295,20 @@ def score_matches(
 
     correct, precision = {}, {}
     for t in ts:  # a loop over thresholds, not over points
-        vtol = t if vt is None else vt
-        c = int(np.count_nonzero((abs_err <= t) & (dy <= vtol)))
+        vtol = t if vt is None else vt  # as float64: a threshold beyond float32 is not cast
+        c = int(np.count_nonzero((abs_err <= np.float64(t)) & (dy <= np.float64(vtol))))
         correct[t] = c
         precision[t] = c / n_scored if n_scored else math.nan
 
     recall = matchable = None
     if right_keypoints is not None:
+        widest = max(max(ts), vt or 0.0)
+        if widest > MAX_RECALL_TOLERANCE:
+            raise InvalidArgumentError(
+                f"recall (with `left_keypoints` and `right_keypoints`) counts the keypoint "
+                f"pairs within the tolerance, so it takes tolerances of at most "
+                f"{MAX_RECALL_TOLERANCE:g} px; got {widest:g} (`thresholds` or "
+                "`vertical_tolerance`); precision alone takes any", argument="thresholds")
         lk = as_points(left_keypoints, "left_keypoints")
         rk = as_points(right_keypoints, "right_keypoints")
         matchable = _count_matchable(lk, rk, disparity, ts, vt)

@@ -473,3 +473,27 @@ def test_correct_matches_bad_arguments():
         correct_matches(s, np.zeros((2, 2), np.float32), np.zeros((2, 2), np.float32))
     with pytest.raises(InvalidArgumentError, match="tolerance"):
         correct_matches(s, left, left - [4, 0], 0.0)
+
+
+def test_huge_tolerances_give_no_runtime_warning_and_recall_refuses_them_first():
+    """A threshold of 1e300 was cast to float32 against the float32 errors (an overflow
+    RuntimeWarning); with keypoints, recall would have enumerated every keypoint pair."""
+    import time
+    import warnings
+
+    gt = np.full((10, 20), 4.0, np.float32)
+    left = np.array([[10, 2], [12, 5]], np.float32)
+    right = np.array([[6, 2], [6.5, 5]], np.float32)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        s = score_matches(left, right, gt, thresholds=(1e300, 1.0), vertical_tolerance=1e300)
+    assert s.correct == {1e300: 2, 1.0: 1}
+    rng = np.random.default_rng(0)
+    kps = rng.uniform(0, 19, (20_000, 2)).astype(np.float32)
+    t0 = time.perf_counter()
+    with pytest.raises(InvalidArgumentError, match="at most 64 px") as e:
+        score_matches(left, right, gt, thresholds=(1e300,), left_keypoints=kps,
+                      right_keypoints=kps)
+    assert e.value.argument == "thresholds" and time.perf_counter() - t0 < 1.0
+    assert score_matches(left, right, gt, thresholds=(64.0,), left_keypoints=left,
+                         right_keypoints=right).recall[64.0] == 1.0
