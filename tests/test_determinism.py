@@ -144,11 +144,13 @@ BOUNDSCHECK_SCRIPT = textwrap.dedent("""
     v = hopmatch.moravec_response((rng.random((30, 30)) * 255).astype(np.uint8), 3)
     hopmatch.moravec_points(v, nms_size=999, margin=20)
     hopmatch.moravec_points(v, nms_size=1, margin=0, subpixel=True)
-    # windows leaving the image (border replicated), NaN centres, 1 x 1 images
+    # windows leaving the image (border replicated), NaN centres (the kernel's, past the
+    # public function's checks), 1 x 1 images
+    from hopmatch.feature.descriptor import cut_windows
     far = np.float32([[-40.5, 3.2], [0, 0], [29.9, 29.9], [75, -8.25], [np.nan, 4]])
     for size in (1, 3, 9):
-        hopmatch.gradient_windows(v, far, size)
-        hopmatch.gradient_windows(v[:1, :1], far, size)
+        cut_windows(v, far, size)
+        cut_windows(v[:1, :1], far, size)
     # candidate output growing past its first allocation, up to the budget and over it
     from hopmatch.matching.network import candidate_pairs
     many = np.c_[rng.uniform(0, 500, 3000), rng.uniform(0, 3, 3000)].astype(np.float32)

@@ -68,3 +68,7 @@ os.makedirs(f"{D}/adir.png", exist_ok=True)
 open(f"{D}/empty.png", "wb").close()
 open(f"{D}/garbage.png", "wb").write(b"not an image at all" * 10)
 print("ok")
+# fuzzing the API (2026-12-07): a tiny pair, and a FileStorage text nested 50,000 deep
+cv2.imwrite(f"{D}/tiny20.png", noise[:20, :20])
+with open(f"{D}/deep.yml", "w") as fh:
+    fh.write("%YAML:1.0\n---\na: " + "[" * 50000 + "]" * 50000 + "\n")

@@ -560,6 +560,89 @@ for sig in ("SIGINT", "SIGTERM", "SIGHUP"):
     ''', "unchanged-or-new", timeout=90)
 
 
+# ------------------------------------------------------- fuzzing the API (2026-12-07)
+# Found by fuzzing the public API table by table (each FAILed before the fixes named in the
+# 2026-12-07 commits): a segmentation fault, an internal error on the command line, foreign
+# exceptions, budgets refused mid-run.
+lib("fuzz", "HopfieldMatcher.load(a YAML file nested 50,000 deep) (a segfault)", '''
+def case():
+    return hopmatch.HopfieldMatcher.create().load(F + "/deep.yml")
+''', "refuse:fs")
+lib("fuzz", "StereoCalibration.from_file(an XML file nested 50,000 deep) (a segfault)", '''
+def case():
+    open("/tmp/probe/deep.xml", "w").write('<?xml version="1.0"?>\\n<opencv_storage>\\n'
+                                           + "<a>" * 50000 + "1" + "</a>" * 50000
+                                           + "\\n</opencv_storage>\\n")
+    return hopmatch.stereo.StereoCalibration.from_file("/tmp/probe/deep.xml")
+''', "refuse:")
+cli("fuzz", "match --fundamental-matrix (a YAML file nested 50,000 deep) (a segfault)",
+    ["match", F + "/L.png", F + "/R.png", "-o", "{tmp}/o", "--fundamental-matrix",
+     F + "/deep.yml"])
+cli("fuzz", "match of a 20 x 20 pair, pictures drawn (an internal error)",
+    ["match", F + "/tiny20.png", F + "/tiny20.png", "-o", "{tmp}/o"], expect="exit0")
+lib("fuzz", "load_scene(meta.json nested 200,000 deep) (RecursionError)", '''
+def case():
+    d = "/tmp/probe/deepscene"; os.makedirs(d, exist_ok=True)
+    for f in ("im0.png", "im1.png", "disp.png"):
+        cv2.imwrite(d + "/" + f, np.zeros((4, 6), np.uint8))
+    open(d + "/meta.json", "w").write('{"left": "im0.png", "right": "im1.png", "disp": '
+                                      '"disp.png", "scale": 8, "x": ' + "[" * 200000
+                                      + "]" * 200000 + "}")
+    return hopmatch.datasets.load_scene(d)
+''', "refuse:")
+lib("fuzz", "gradient_windows(g, float32 points holding NaN) (NaN rows)", '''
+def case():
+    g = np.random.default_rng(0).random((50, 50)).astype(np.float32)
+    return hopmatch.gradient_windows(g, np.array([[np.nan, 5]], np.float32), 3)
+''', "refuse:points")
+lib("fuzz", "HopfieldMatcher on points at negative x, no image sizes (a range refused)", '''
+def case():
+    rng = np.random.default_rng(0); p = rng.uniform(0, 300, (400, 2)).astype(np.float32) - 400
+    d = rng.normal(size=(400, 25)).astype(np.float32)
+    m = hopmatch.HopfieldMatcher.create(); m.setPairInfo(p, p); return m.match(d, d)
+''', "len-or-refuse:")
+lib("fuzz", "match_stereo(record_energy='x') (read as True)", '''
+def case():
+    l, r = noise_pair(); return hopmatch.match_stereo(l, r, record_energy="x")
+''', "refuse:record_energy")
+lib("fuzz", "matches_table of 2 left and 1 right points (cut silently)", '''
+def case():
+    from hopmatch import tables
+    lp = np.float32([[10, 10], [20, 20]])
+    return tables.matches_table(lp, lp[:1], np.ones(2), np.ones(2))
+''', "refuse:")
+lib("fuzz", "viz.draw_labelled_matches(gap=10**9) (MemoryError)", '''
+def case():
+    img = np.zeros((50, 60), np.uint8); kp = [cv2.KeyPoint(10, 10, 5)]
+    return hopmatch.viz.draw_labelled_matches(img, img, kp, kp, [cv2.DMatch(0, 0, .1)],
+                                              gap=10**9)
+''', "refuse:gap")
+lib("fuzz", "viz.draw_keypoints(color='red') (cv2.error)", '''
+def case():
+    return hopmatch.viz.draw_keypoints(np.zeros((50, 60), np.uint8), [cv2.KeyPoint(10, 10, 5)],
+                                       color="red")
+''', "refuse:color")
+lib("fuzz", "files.write_text_atomic(path, bytes) (AttributeError)", '''
+def case():
+    import hopmatch.files
+    return hopmatch.files.write_text_atomic("/tmp/probe/x.txt", b"abc")
+''', "refuse:text")
+lib("fuzz", "match_stereo(rectified=False) on a 2964 x 2000 pair (BudgetExceededError)", '''
+def case():
+    import skimage.data
+    l, r, _ = skimage.data.stereo_motorcycle()
+    l, r = (cv2.resize(cv2.cvtColor(v, cv2.COLOR_RGB2GRAY), (2964, 2000)) for v in (l, r))
+    return hopmatch.match_stereo(l, r, rectified=False)
+''', "matches-or-refuse:", timeout=120)
+lib("fuzz", "knnMatch(k=2000) of 2000 points (28 s in the padding)", '''
+def case():
+    rng = np.random.default_rng(0); n = 2000
+    p = rng.uniform(0, 400, (n, 2)).astype(np.float32); d = rng.normal(size=(n, 25)).astype(np.float32)
+    m = hopmatch.HopfieldMatcher.create(max_disparity=8); m.setPairInfo(p, p, (400, 400), (400, 400))
+    return m.knnMatch(d, d, k=n)
+''', "len-or-refuse:", timeout=25)
+
+
 # ========================================================================== runner
 def classify(expect, res, seconds, rc=None, stderr=""):
     if res is None:
@@ -653,6 +736,8 @@ def run_cli(spec, expect, timeout):
     if expect == "summary":
         ok = os.path.exists(f"{tmp}/o/summary.csv")
         return ("ok" if ok else "FAIL"), desc + ("" if ok else " (no summary.csv)")
+    if expect == "exit0":
+        return ("ok" if p.returncode == 0 else "FAIL"), desc
     ok = p.returncode == 2 and "internal error" not in p.stderr and "Traceback" not in p.stderr
     if "nohint" in expect and "create(--" in p.stderr:
         ok = False

@@ -474,7 +474,9 @@ class TestGradientWindows:
 
     def test_rows_do_not_depend_on_the_other_points(self):
         """Points are described four at a time (interleaved sums): each row is the one the
-        point gets alone, whatever the batch size, order or neighbours (NaN centres too)."""
+        point gets alone, whatever the batch size, order or neighbours (NaN centres too: the
+        kernel's behaviour, so through cut_windows, past gradient_windows's checks)."""
+        from hopmatch.feature.descriptor import cut_windows as gradient_windows
         rng = np.random.default_rng(31)
         g = rng.uniform(0, 9, (25, 30)).astype(np.float32)
         pts = np.column_stack([rng.uniform(-2, 32, 11), rng.uniform(-2, 27, 11)])
