@@ -600,7 +600,7 @@ def case():
     rng = np.random.default_rng(0); p = rng.uniform(0, 300, (400, 2)).astype(np.float32) - 400
     d = rng.normal(size=(400, 25)).astype(np.float32)
     m = hopmatch.HopfieldMatcher.create(); m.setPairInfo(p, p); return m.match(d, d)
-''', "len-or-refuse:")
+''', "run")
 lib("fuzz", "match_stereo(record_energy='x') (read as True)", '''
 def case():
     l, r = noise_pair(); return hopmatch.match_stereo(l, r, record_energy="x")
@@ -631,7 +631,7 @@ lib("fuzz", "match_stereo(rectified=False) on a 2964 x 2000 pair (BudgetExceeded
 def case():
     import skimage.data
     l, r, _ = skimage.data.stereo_motorcycle()
-    l, r = (cv2.resize(cv2.cvtColor(v, cv2.COLOR_RGB2GRAY), (2964, 2000)) for v in (l, r))
+    l, r = (cv2.resize(v, (2964, 2000)) for v in (l, r))  # colour, bilinear
     return hopmatch.match_stereo(l, r, rectified=False)
 ''', "matches-or-refuse:", timeout=120)
 lib("fuzz", "knnMatch(k=2000) of 2000 points (28 s in the padding)", '''
@@ -640,7 +640,7 @@ def case():
     p = rng.uniform(0, 400, (n, 2)).astype(np.float32); d = rng.normal(size=(n, 25)).astype(np.float32)
     m = hopmatch.HopfieldMatcher.create(max_disparity=8); m.setPairInfo(p, p, (400, 400), (400, 400))
     return m.knnMatch(d, d, k=n)
-''', "len-or-refuse:", timeout=25)
+''', "len-or-refuse:", timeout=12)
 
 
 # ========================================================================== runner
