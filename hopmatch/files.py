@@ -197,8 +197,10 @@ def check_storage_nesting(path, *, argument: str | None = None) -> None:
     :data:`MAX_STORAGE_NESTING` brackets, braces and angle brackets in all
     (:func:`storage_nesting_bound`; hopmatch's own files hold a few) cannot nest deeper
     and passes at once; a file of more is parsed first in a child Python process, and
-    refused if that process dies of a signal or does not finish within a minute. The
-    file is read as :func:`read_input_bytes` reads it, at most :data:`MAX_TEXT_BYTES`.
+    refused if that process dies of a signal or does not finish within a minute (a parser
+    that refuses the file with an error, as OpenCV 5's does past its own depth limit,
+    passes here: the caller's parse then raises that error). The file is read as
+    :func:`read_input_bytes` reads it, at most :data:`MAX_TEXT_BYTES`.
 
     Raises
     ------

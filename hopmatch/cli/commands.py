@@ -208,7 +208,7 @@ def read_fundamental_matrix(path: str) -> np.ndarray:
         raise CLIError(path, exc.problem) from None
     except OSError as exc:
         raise CLIError(path, os_reason(exc) if exc.errno else str(exc)) from None
-    except (ValueError, cv2.error) as exc:
+    except (ValueError, cv2.error, SystemError) as exc:  # SystemError: cv2 5 on bad files
         raise CLIError(path, f"is not a matrix file: {one_line(exc)[:200]}") from None
     value = np.asarray(value)
     if value.dtype.kind not in "biuf":
