@@ -25,7 +25,7 @@ from typing import Any
 
 import cv2
 
-from ._validate import as_int, as_real
+from ._validate import as_flag, as_int, as_real
 from .errors import FileReadError, HopmatchError, InvalidArgumentError, InvalidTypeError
 from .files import MAX_TEXT_BYTES, atomic_path, check_input_file, check_storage_nesting
 
@@ -196,17 +196,9 @@ def real(lo=None, hi=None, *, lo_open=False, optional=False) -> Check:
 
 
 def boolean() -> Check:
-    """A parameter check: True or False (the integers 0 and 1 too, as FileStorage stores
-    booleans)."""
-    def check(name, value):
-        if isinstance(value, bool):
-            return value
-        if isinstance(value, numbers.Integral) and int(value) in (0, 1):
-            return bool(value)
-        raise InvalidTypeError(
-            f"`{name}` must be True or False, got {type(value).__name__} {value!r}")
-
-    return Check("bool", check)
+    """A parameter check: :func:`~hopmatch._validate.as_flag` (True, False, NumPy's bools,
+    and the integers 0 and 1, as FileStorage stores booleans)."""
+    return Check("bool", lambda name, value: as_flag(value, name))
 
 
 def choice(*options: str) -> Check:

@@ -368,9 +368,6 @@ def as_int(value, name: str, *, lo: int | None = None, hi: int | None = None,
     return v
 
 
-# -- matrices --------------------------------------------------------------------------------
-
-
 def as_flag(value, name: str) -> bool:
     """``value`` as a bool: True, False, NumPy's bools, or the integers 0 and 1 (as cv2's
     Python bindings take a ``bool`` argument); anything else, a string such as ``"no"``
@@ -381,6 +378,9 @@ def as_flag(value, name: str) -> bool:
         return bool(value)
     raise InvalidTypeError(f"`{name}` must be True or False, got {describe(value)}",
                            argument=name)
+
+
+# -- matrices --------------------------------------------------------------------------------
 
 
 def as_array(value, name: str, what: str = "a numeric array", *, finite: bool = True,

@@ -7,6 +7,7 @@ import math
 import os
 
 import cv2
+import numpy as np
 import pytest
 
 import hopmatch
@@ -83,6 +84,19 @@ def test_validator_errors_name_their_argument(check, value, error):
         check("some_name", value)
     assert info.value.argument == "some_name"
     assert str(info.value).startswith("`some_name` ")
+
+
+def test_boolean_parameters_take_what_as_flag_takes():
+    # one rule for flags, whether a parameter or a call's argument (as_flag)
+    check = boolean()
+    for value in (True, False, np.bool_(True), np.bool_(False), 0, 1, np.int64(1)):
+        out = check("flag", value)
+        assert type(out) is bool and out == bool(value)
+    for value in ("no", 2, -1, 0.0, None, np.array([True])):
+        with pytest.raises(InvalidTypeError, match="`flag` must be True or False"):
+            check("flag", value)
+    m = HopfieldMatcher(cross_check=np.bool_(False))
+    assert m.getCrossCheck() is False
 
 
 def test_class_errors_name_the_parameter():
