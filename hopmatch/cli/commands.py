@@ -21,7 +21,7 @@ from ..matching.stereo_match import match_stereo, stereo_pipeline
 from ..matching.unrectified import UNRECTIFIED_VERTICAL
 from ..tables import format_table, matches_table
 from .group import cli
-from .options import given_parameters, param_labels, parameter_options
+from .options import PlainIntRange, given_parameters, param_labels, parameter_options
 from .outputs import Outputs, image_info, ms, read_image, run_json
 from .reporting import CLIError, guard, one_line, say, status
 
@@ -542,7 +542,7 @@ def detect(ctx, image, out, no_draw, **params):
 
 
 @cli.command()
-@click.option("--processes", type=click.IntRange(1, 4096), default=None, metavar="N",
+@click.option("--processes", type=PlainIntRange(1, 4096), default=None, metavar="N",
               help="Python processes compiling at once (default: 2 on a machine with 2 or "
                    "more cores, else 1; more than 2 gains nothing).")
 @click.pass_context

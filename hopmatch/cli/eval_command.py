@@ -14,6 +14,7 @@ import hopmatch
 
 from .. import viz
 from .group import cli
+from .options import PlainIntRange
 from .outputs import Outputs
 from .reporting import CLIError, guard, say, status
 
@@ -54,7 +55,7 @@ def _method_help() -> str:
 @click.option("--draw", is_flag=True,
               help="Also draw the matches of every scene and method "
                    "(matches_<scene>_<method>.png in DIR).")
-@click.option("--repeat", type=click.IntRange(min=1), default=None, metavar="N",
+@click.option("--repeat", type=PlainIntRange(min=1), default=None, metavar="N",
               help="Time each method N times per scene and keep the shortest "
                    "[default: 1; with --docs: 3].")
 @click.pass_context

@@ -13,8 +13,8 @@ import click
 from ..feature.detector import DericheMoravecDetector
 from .reporting import plain_text, strip_name
 
-__all__ = ["NONE", "ParamType", "given_parameters", "option_name", "param_labels",
-           "parameter_options"]
+__all__ = ["NONE", "ParamType", "PlainIntRange", "given_parameters", "option_name", "param_labels",
+           "parameter_options", "plain_number"]
 
 #: The value of ``--param none``: set an optional parameter to None.
 NONE = object()
@@ -26,6 +26,27 @@ _TYPE_NAMES = {"int": "integer", "float": "number"}
 def option_name(name: str) -> str:
     """``window_size`` -> ``--window-size``."""
     return "--" + name.replace("_", "-")
+
+
+def plain_number(text: str, kind: str):
+    """``text`` (stripped) as an int (``kind`` "int") or a float, or None when it is not
+    one. Python's ``int()`` and ``float()`` also read ``"1_0"`` as 10 and the digits of
+    other scripts: an option takes plain ASCII numbers only."""
+    if not text.isascii() or "_" in text:
+        return None
+    try:
+        return int(text) if kind == "int" else float(text)
+    except ValueError:
+        return None
+
+
+class PlainIntRange(click.IntRange):
+    """:class:`click.IntRange` that takes plain ASCII integers only (:func:`plain_number`)."""
+
+    def convert(self, value, param, ctx):  # noqa: D102 (click API)
+        if isinstance(value, str) and plain_number(value.strip(), "int") is None:
+            self.fail(f"{value!r} is not an integer", param, ctx)
+        return super().convert(value, param, ctx)
 
 
 class ParamType(click.ParamType):
@@ -50,16 +71,12 @@ class ParamType(click.ParamType):
             text = value.strip()
             if self.optional and text.lower() == "none":
                 return NONE
-            if self.kind == "int":
-                try:
-                    value = int(text)
-                except ValueError:
-                    self.fail(f"{value!r} is not an integer")
-            elif self.kind == "float":
-                try:
-                    value = float(text)
-                except ValueError:
-                    self.fail(f"{value!r} is not a number")
+            if self.kind in ("int", "float"):
+                number = plain_number(text, self.kind)
+                if number is None:
+                    self.fail(f"{value!r} is not " + ("an integer" if self.kind == "int"
+                                                      else "a number"))
+                value = number
         try:
             return self.spec.check(self.spec.name, value)
         except (TypeError, ValueError) as exc:

@@ -30,6 +30,9 @@ BAD_OPTIONS = [  # (extra arguments, words the message must hold)
     (["--alpha", "0"], ["--alpha"]),
     (["--similarity-gate", "-1"], ["--similarity-gate"]),
     (["--max-disparity", "nan"], ["--max-disparity"]),
+    # Python's int() and float() read these as 10 and 12: plain ASCII numbers only
+    (["--max-disparity", "1_0"], ["--max-disparity", "1_0", "not a number"]),
+    (["--window-size", "\u0661\u0663"], ["--window-size", "not an integer"]),
     (["--format", "xml"], ["--format", "xml"]),
     (["--bogus"], ["--bogus", "no such option"]),
     # only found while running: the output folder exists by then and must be cleaned up
@@ -45,6 +48,12 @@ def test_bad_option(pair, tmp_path, extra, words):
     line = assert_bad_input(res, *words)
     assert line.startswith(f"hopmatch: error: {words[0]}: ")
     assert not (tmp_path / "a").exists()  # folders created by the failed run are removed
+
+
+@pytest.mark.parametrize("command", [["warmup", "--processes"], ["eval", "--repeat"]])
+def test_count_options_take_plain_integers(command):
+    # click.IntRange reads "1_0" as 10 (Python's int()); hopmatch's counts do not
+    assert_bad_input(run(*command, "1_0"), command[-1], "1_0", "not an integer")
 
 
 def test_missing_out_option(pair):
