@@ -102,7 +102,7 @@ def draw_row(row: Mapping, scene: StereoScene, tolerance: float = 1.0) -> np.nda
     correct, known = correct_flags(row, tolerance)
     pairs = np.repeat(np.arange(len(res.left_pts))[:, None], 2, axis=1)
     truth = np.asarray(scene.disparity)[scene.valid]
-    hi = float(np.max(truth)) if truth.size else None
+    hi = float(np.max(truth)) if truth.size and np.max(truth) > 0 else None  # else automatic
     return draw_match_overview(scene.left, scene.right, res.left_pts, res.right_pts, pairs,
                                correct=correct, known=known,
                                min_disparity=None if hi is None else 0.0, max_disparity=hi)

@@ -351,8 +351,9 @@ def draw_disparity(left, points, disparities, max_disparity=None, *, radius: int
     disparities : (N,) ndarray
         Their disparities in pixels, finite.
     max_disparity : float, optional
-        Disparity drawn red (the top of the colour map); default: the largest given.
-        ``min_disparity`` (default 0) is drawn dark blue; values outside are clipped.
+        Disparity drawn red (the top of the colour map), greater than ``min_disparity``;
+        default: the largest given. ``min_disparity`` (default 0) is drawn dark blue; values
+        outside are clipped (all dark blue when the largest given is not above it).
     radius : int
         Dot radius in pixels, in ``[0, MAX_DRAW_SIZE]`` (:data:`MAX_DRAW_SIZE`).
 
@@ -365,7 +366,8 @@ def draw_disparity(left, points, disparities, max_disparity=None, *, radius: int
     ------
     InvalidArgumentError
         Not one finite disparity per point, ``min_disparity`` or ``max_disparity`` is not
-        finite, or ``radius`` is outside its range.
+        finite, ``max_disparity`` is not greater than ``min_disparity``, or ``radius`` is
+        outside its range.
     InvalidTypeError
         ``radius`` is not an integer, or a bound of the scale is not a number.
 
@@ -378,6 +380,10 @@ def draw_disparity(left, points, disparities, max_disparity=None, *, radius: int
     radius = as_draw_size(radius, "radius")
     lo = as_real(min_disparity, "min_disparity")
     hi = as_real(max_disparity, "max_disparity", optional=True)
+    if hi is not None and not (hi > lo and math.isfinite(hi - lo)):
+        raise InvalidArgumentError(
+            f"`max_disparity` must be greater than `min_disparity` ({lo!r}) by a finite "
+            f"amount, got {hi!r}", argument="max_disparity")
     gray = as_display_image(left, "left")
     gray = cv2.cvtColor(cv2.cvtColor(gray, cv2.COLOR_BGR2GRAY), cv2.COLOR_GRAY2BGR)
     pts = drawable_points(points, "points")

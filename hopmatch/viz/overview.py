@@ -120,8 +120,9 @@ def disparity_scale(disparities, min_disparity=None, max_disparity=None) -> tupl
     InvalidTypeError
         ``disparities`` are not numbers, or a bound is not a number.
     InvalidArgumentError
-        A bound is not finite, or the scale is too wide for a float (``hi - lo`` beyond
-        the float range).
+        A bound is not finite, ``max_disparity`` is not greater than the scale's bottom
+        (``min_disparity``, or the one chosen for it), or the scale is too wide for a float
+        (``hi - lo`` beyond the float range).
 
     Examples
     --------
@@ -139,6 +140,12 @@ def disparity_scale(disparities, min_disparity=None, max_disparity=None) -> tupl
         min(0.0, math.floor(float(d.min()))) if d.size else 0.0)
     if max_disparity is not None:
         hi = max_disparity
+        if not hi > lo:
+            bottom = ("`min_disparity`" if min_disparity is not None
+                      else "the scale's bottom, min(0, smallest disparity),")
+            raise InvalidArgumentError(
+                f"`max_disparity` must be greater than {bottom} {lo!r}, got {hi!r}",
+                argument="max_disparity")
     elif d.size:
         top = float(np.percentile(d, 99.5))
         if not math.isfinite(top - lo):
