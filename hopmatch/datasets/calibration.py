@@ -1,13 +1,12 @@
 """Readers of stereo calibration files: Middlebury ``calib.txt`` (``cam0=[...]`` lines) and
 KITTI ``calib.txt`` / ``calib_cam_to_cam`` style (``P0: ...`` lines).
 
-Each raises :class:`hopmatch.errors.InvalidArgumentError` naming the file and what was
-expected when it is missing or malformed, and :class:`hopmatch.errors.FileReadError` (an
-``InvalidArgumentError``) when a value is not a finite number or a focal length or baseline
-is not positive (``"<path>: not a valid <what> file: <problem>"``, as
+Each raises :class:`hopmatch.errors.FileReadError` (an ``InvalidArgumentError``) naming the
+file and what was expected when it is missing, unreadable or malformed, a value that is not
+a finite number and a focal length or baseline that is not positive included
+(``"<path>: not a valid <what> file: <problem>"``, as
 :func:`hopmatch.datasets.readers.malformed_file` words it).
 """
-
 from __future__ import annotations
 
 import math
@@ -16,7 +15,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InvalidArgumentError
 from ..files import MAX_TEXT_BYTES
 from .readers import existing_file, malformed_file, read_text_file
 
@@ -43,17 +41,13 @@ def _check_positive(value: float, p: Path, what: str, where: str) -> float:
 def _parse_matrix(text: str, path, key: str) -> np.ndarray:
     rows = [r.split() for r in text.strip().split(";")]
     if any(len(r) != len(rows[0]) for r in rows):
-        raise InvalidArgumentError(
-            f"Middlebury calibration file {str(path)!r}: the rows of `{key}` have different "
-            f"lengths ({[len(r) for r in rows]})"
-        )
+        raise malformed_file(path, "Middlebury calibration", f"the rows of `{key}` have "
+                             f"different lengths ({[len(r) for r in rows]})")
     try:
         return np.array([[float(v) for v in r] for r in rows], dtype=np.float64)
     except ValueError:
-        raise InvalidArgumentError(
-            f"Middlebury calibration file {str(path)!r}: `{key}` must be a matrix like "
-            f"'[f 0 cx; 0 f cy; 0 0 1]', got {text!r}"
-        ) from None
+        raise malformed_file(path, "Middlebury calibration", f"`{key}` must be a matrix "
+                             f"like '[f 0 cx; 0 f cy; 0 0 1]', got {text[:80]!r}") from None
 
 
 def read_middlebury_calib(path) -> dict:
@@ -86,13 +80,11 @@ def read_middlebury_calib(path) -> dict:
 
     Raises
     ------
-    InvalidArgumentError
-        Missing file, a line without ``=``, a value that is neither a number nor a
-        matrix, or no 3x3 ``cam0`` / ``cam1``.
     FileReadError
-        A value that is not finite (``nan``, ``inf``, a number beyond the float range;
-        the message names its key and line), or a focal length ``cam0[0, 0]`` or
-        ``baseline`` that is not finite and > 0.
+        Missing file, a line without ``=``, a value that is neither a number nor a
+        matrix, no 3x3 ``cam0`` / ``cam1``, a value that is not finite (``nan``, ``inf``,
+        a number beyond the float range; the message names its key and line), or a focal
+        length ``cam0[0, 0]`` or ``baseline`` that is not finite and > 0.
 
     Examples
     --------
@@ -113,35 +105,29 @@ def read_middlebury_calib(path) -> dict:
         if not line or line.startswith("#"):
             continue
         if "=" not in line:
-            raise InvalidArgumentError(
-                f"Middlebury calibration file {str(p)!r}, line {lineno}: expected "
-                f"'key=value', got {line!r}"
-            )
+            raise malformed_file(p, "Middlebury calibration",
+                                 f"line {lineno}: expected 'key=value', got {line[:80]!r}")
         key, value = (s.strip() for s in line.split("=", 1))
         if value.startswith("["):
             if not value.endswith("]"):
-                raise InvalidArgumentError(
-                    f"Middlebury calibration file {str(p)!r}, line {lineno}: matrix "
-                    f"`{key}` is not closed with ']'"
-                )
+                raise malformed_file(p, "Middlebury calibration",
+                                     f"line {lineno}: matrix `{key}` is not closed with ']'")
             calib[key] = _parse_matrix(value[1:-1], p, key)
         else:
             try:
                 calib[key] = float(value)
             except ValueError:
-                raise InvalidArgumentError(
-                    f"Middlebury calibration file {str(p)!r}, line {lineno}: `{key}` must "
-                    f"be a number or a matrix, got {value!r}"
-                ) from None
+                raise malformed_file(p, "Middlebury calibration", f"line {lineno}: `{key}` "
+                                     f"must be a number or a matrix, got {value[:80]!r}"
+                                     ) from None
         _check_finite(calib[key], p, "Middlebury calibration", f"line {lineno}: `{key}`")
     for key in ("cam0", "cam1"):
         if not isinstance(calib.get(key), np.ndarray) or calib[key].shape != (3, 3):
-            raise InvalidArgumentError(
-                f"Middlebury calibration file {str(p)!r} must define `{key}` as a 3x3 "
-                f"matrix '[f 0 cx; 0 f cy; 0 0 1]'"
-                + (f", got shape {calib[key].shape}" if key in calib and
-                   isinstance(calib[key], np.ndarray) else "")
-            )
+            raise malformed_file(
+                p, "Middlebury calibration", f"it must define `{key}` as a 3x3 matrix "
+                "'[f 0 cx; 0 f cy; 0 0 1]'" + (f", got shape {calib[key].shape}" if key in
+                                                calib and isinstance(calib[key], np.ndarray)
+                                                else ""))
     what = "Middlebury calibration"
     calib["focal_length"] = _check_positive(float(calib["cam0"][0, 0]), p, what,
                                             "the focal length cam0[0, 0]")
@@ -172,11 +158,9 @@ def read_kitti_calib(path) -> dict:
 
     Raises
     ------
-    InvalidArgumentError
-        Missing file, a line that is not ``key: numbers``, or P0..P3 missing or not 12
-        numbers.
     FileReadError
-        A value that is not finite (``nan``, ``inf``, a number beyond the float range;
+        Missing file, a line that is not ``key: numbers``, or P0..P3 missing or not 12
+        numbers; a value that is not finite (``nan``, ``inf``, a number beyond the float range;
         the message names its key and line), or a focal length ``P0[0, 0]``, ``P1[0, 0]``
         or a baseline that is not finite and > 0.
 
@@ -204,10 +188,8 @@ def read_kitti_calib(path) -> dict:
                 raise ValueError
             nums = np.array([float(v) for v in value.split()], dtype=np.float64)
         except ValueError:
-            raise InvalidArgumentError(
-                f"KITTI calibration file {str(p)!r}, line {lineno}: expected "
-                f"'P0: 12 numbers', got {line[:80]!r}"
-            ) from None
+            raise malformed_file(p, "KITTI calibration", f"line {lineno}: expected "
+                                 f"'P0: 12 numbers', got {line[:80]!r}") from None
         key = key.strip()
         _check_finite(nums, p, "KITTI calibration", f"line {lineno}: `{key}`")
         if nums.size == 12:
@@ -218,10 +200,8 @@ def read_kitti_calib(path) -> dict:
     for key in ("P0", "P1", "P2", "P3"):
         if key not in calib or calib[key].shape != (3, 4):
             got = f"{calib[key].size} numbers" if key in calib else "nothing"
-            raise InvalidArgumentError(
-                f"KITTI calibration file {str(p)!r} must define `{key}` as a 3x4 projection "
-                f"matrix (12 numbers), got {got}"
-            )
+            raise malformed_file(p, "KITTI calibration", f"it must define `{key}` as a 3x4 "
+                                 f"projection matrix (12 numbers), got {got}")
     p0, p1 = calib["P0"], calib["P1"]
     what = "KITTI calibration"
     calib["focal_length"] = _check_positive(float(p0[0, 0]), p, what, "the focal length P0[0, 0]")
@@ -254,7 +234,7 @@ def read_calibration(path) -> dict:
 
     Raises
     ------
-    InvalidArgumentError
+    FileReadError
         Missing or binary file, neither format, or as the reader of its format does.
     """
     p = existing_file(path, "calibration", MAX_TEXT_BYTES)
@@ -263,7 +243,5 @@ def read_calibration(path) -> dict:
         return read_kitti_calib(p)
     if re.search(r"^\s*cam0\s*=", head, re.M):
         return read_middlebury_calib(p)
-    raise InvalidArgumentError(
-        f"calibration file {str(p)!r} is neither KITTI ('P0: ...' lines) nor Middlebury "
-        "('cam0=[...]' lines)"
-    )
+    raise malformed_file(p, "calibration", "it is neither KITTI ('P0: ...' lines) nor "
+                         "Middlebury ('cam0=[...]' lines)")

@@ -82,10 +82,11 @@ def existing_file(path, what: str, max_bytes: int | None = None) -> Path:
     ``max_bytes`` bytes when given), checked without opening it
     (:func:`hopmatch.files.check_input_file`).
 
-    Raises :class:`InvalidArgumentError` ``"<what> file '<path>' does not exist"``,
-    ``"<what> path '<path>' is not a file"`` (a folder), ``"<what> path '<path>' is a named
-    pipe (FIFO), not a regular file..."`` (pipes, devices, sockets), or says why the system
-    refused it or that it is too large.
+    Raises :class:`~hopmatch.errors.FileReadError` (its ``kind`` that of
+    :func:`~hopmatch.files.check_input_file`) ``"<path>: the <what> file does not exist"``,
+    ``"<path>: the <what> path is not a file (it names a folder)"``, ``"<path>: the <what>
+    path is a named pipe (FIFO), not a regular file..."`` (pipes, devices, sockets), or
+    ``"<path>: <why the system refused it, or that it is too large> (the <what> file)"``.
     """
     p = as_path(path)
     try:
@@ -95,15 +96,18 @@ def existing_file(path, what: str, max_bytes: int | None = None) -> Path:
     return p
 
 
-def _file_error(p: Path, what: str, exc: FileReadError) -> InvalidArgumentError:
-    """A :class:`FileReadError` worded as the readers word their errors."""
+def _file_error(p: Path, what: str, exc: FileReadError) -> FileReadError:
+    """``exc`` (a :class:`FileReadError`, its ``kind`` kept) worded to say which file it
+    was: ``"<path>: the <what> file does not exist"``..."""
     if exc.kind == "missing" and exc.problem == "no such file":
-        return InvalidArgumentError(f"{what} file {str(p)!r} does not exist")
-    if exc.kind == "folder":
-        return InvalidArgumentError(f"{what} path {str(p)!r} is not a file")
-    if exc.kind == "special":
-        return InvalidArgumentError(f"{what} path {str(p)!r} {exc.problem}")
-    return InvalidArgumentError(f"{what} file {str(p)!r}: {exc.problem}")
+        problem = f"the {what} file does not exist"
+    elif exc.kind == "folder":
+        problem = f"the {what} path is not a file (it names a folder)"
+    elif exc.kind == "special":
+        problem = f"the {what} path {exc.problem}"
+    else:
+        problem = f"{exc.problem} (the {what} file)"
+    return FileReadError(p, problem, kind=exc.kind)
 
 
 def _read_bytes(path, what: str) -> bytes:
@@ -124,7 +128,7 @@ def read_text_file(path, what: str) -> str:
     except FileReadError as exc:
         raise _file_error(p, what, exc) from None
     except UnicodeDecodeError:
-        raise InvalidArgumentError(f"{what} file {str(p)!r} is not a text file") from None
+        raise FileReadError(p, f"the {what} file is not a text file") from None
 
 
 def malformed_file(path, what: str, problem: str) -> FileReadError:
@@ -142,12 +146,11 @@ def _decode(path, flags: int, what: str) -> np.ndarray:
         return read_image(p, flags)
     except ImageReadError as exc:
         if exc.kind in ("unreadable", "too_large", "too_many_pixels"):
-            raise InvalidArgumentError(f"{what} file {str(p)!r}: {exc.problem}") from None
+            raise ImageReadError(p, f"{exc.problem} (the {what} file)", kind=exc.kind) from None
         if exc.kind in ("empty", "undecodable"):
-            raise InvalidArgumentError(
-                f"{what} file {str(p)!r} could not be decoded as an image "
-                "(expected a PNG, PGM/PPM or JPEG file)"
-            ) from None
+            raise ImageReadError(
+                p, f"the {what} file could not be decoded as an image (expected a PNG, "
+                "PGM/PPM or JPEG file)", kind=exc.kind) from None
         existing_file(p, what)  # it vanished or changed since: say so in the same words
         raise
 
@@ -195,10 +198,8 @@ def _single_channel(img: np.ndarray, path, what: str) -> np.ndarray:
             np.array_equal(img[:, :, 0], img[:, :, c]) for c in range(1, min(img.shape[2], 3))
         ):
             return img[:, :, 0]
-        raise InvalidArgumentError(
-            f"{what} file {str(path)!r} must be a single-channel (grey) image, "
-            f"got {img.shape[2]} channels with different values"
-        )
+        raise malformed_file(path, what, "it must be a single-channel (grey) image, got "
+                             f"{img.shape[2]} channels with different values")
     return img
 
 
@@ -311,10 +312,8 @@ def read_middlebury_disparity(path, scale, unknown_value=0) -> np.ndarray:
     raw = _decode(path, cv2.IMREAD_UNCHANGED, "Middlebury disparity")
     raw = _single_channel(raw, path, "Middlebury disparity")
     if raw.dtype not in (np.uint8, np.uint16):
-        raise InvalidArgumentError(
-            f"Middlebury disparity file {str(path)!r} must hold 8- or 16-bit integers, "
-            f"got {raw.dtype}"
-        )
+        raise malformed_file(path, "Middlebury disparity",
+                             f"it must hold 8- or 16-bit integers, got {raw.dtype}")
     bits = raw.dtype.itemsize * 8
     as_unknown_value(unknown_value, bits=bits,
                      of=f"the {bits}-bit Middlebury disparity file {str(path)!r}")
@@ -456,10 +455,9 @@ def read_kitti_disparity(path) -> np.ndarray:
     """
     raw = _decode(path, cv2.IMREAD_UNCHANGED, "KITTI disparity")
     if raw.ndim != 2 or raw.dtype != np.uint16:
-        raise InvalidArgumentError(
-            f"KITTI disparity file {str(path)!r} must be a single-channel 16-bit PNG "
-            f"(value / 256, 0 = unknown), got shape {raw.shape} and dtype {raw.dtype}"
-        )
+        raise malformed_file(path, "KITTI disparity",
+                             "it must be a single-channel 16-bit PNG (value / 256, 0 = "
+                             f"unknown), got shape {raw.shape} and dtype {raw.dtype}")
     return _to_disparity(raw, 256.0, 0)
 
 
@@ -500,7 +498,8 @@ def read_scene_disparity(path, scale, unknown_value=0, pfm_unknown=None) -> np.n
         pfm_unknown = as_pfm_value(pfm_unknown, "pfm_unknown")
         data = read_pfm(path)
         if data.ndim != 2:
-            raise InvalidArgumentError(f"disparity file {str(path)!r} must be a grey 'Pf' PFM")
+            raise malformed_file(path, "disparity", "it must be a grey 'Pf' PFM, got a colour "
+                                 "'PF' one")
         if pfm_unknown is not None:
             data[data == np.float32(pfm_unknown)] = np.nan
         return _scaled_pfm(data, scale, path)

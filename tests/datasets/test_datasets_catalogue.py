@@ -28,7 +28,7 @@ from hopmatch.datasets import (
     read_kitti_disparity,
     shared_data_dir,
 )
-from hopmatch.errors import InvalidArgumentError, InvalidTypeError
+from hopmatch.errors import FileReadError, InvalidArgumentError, InvalidTypeError
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -156,9 +156,10 @@ class TestLoadScene:
     def test_missing_image(self, tmp_path):
         folder = make_scene(tmp_path / "k")
         (folder / "right.png").unlink()
-        with pytest.raises(InvalidArgumentError,
-                           match="right image file.*right.png.*does not exist"):
+        with pytest.raises(FileReadError,
+                           match="right.png: the right image file does not exist") as exc:
             load_scene(folder)
+        assert exc.value.kind == "missing" and exc.value.path.endswith("right.png")
 
     def test_size_mismatch(self, tmp_path):
         folder = make_scene(tmp_path / "k")

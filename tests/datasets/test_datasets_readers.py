@@ -27,7 +27,8 @@ from hopmatch.datasets.readers import (
     read_scene_disparity,
     read_scene_image,
 )
-from hopmatch.errors import InvalidArgumentError, InvalidTypeError
+from hopmatch.errors import FileReadError, InvalidArgumentError, InvalidTypeError
+from hopmatch.imageio import ImageReadError
 
 # --------------------------------------------------------------------------------------
 # Middlebury 2001-2006 disparity
@@ -87,9 +88,9 @@ class TestReadMiddleburyDisparity:
     def test_not_an_image(self, tmp_path):
         path = tmp_path / "junk.png"
         path.write_text("this is not a PNG")
-        with pytest.raises(InvalidArgumentError, match="could not be decoded") as exc:
+        with pytest.raises(ImageReadError, match="could not be decoded") as exc:
             read_middlebury_disparity(path, scale=8)
-        assert "junk.png" in str(exc.value)
+        assert "junk.png" in str(exc.value) and exc.value.kind == "undecodable"
 
     def test_empty_file(self, tmp_path):
         path = tmp_path / "empty.pgm"
@@ -252,7 +253,8 @@ class TestReadMiddleburyCalib:
             read_middlebury_calib(path)
 
     def test_missing(self, tmp_path):
-        with pytest.raises(InvalidArgumentError, match="calib.txt.*does not exist"):
+        with pytest.raises(FileReadError,
+                           match="calib.txt: the Middlebury calibration file does not exist"):
             read_middlebury_calib(tmp_path / "calib.txt")
 
     def test_binary_file(self, tmp_path):
@@ -285,7 +287,7 @@ class TestReadKittiDisparity:
         assert "uint8" in str(exc.value) and "d.png" in str(exc.value)
 
     def test_missing(self, tmp_path):
-        with pytest.raises(InvalidArgumentError, match="KITTI disparity.*does not exist"):
+        with pytest.raises(FileReadError, match="disp.png: the KITTI disparity file does not"):
             read_kitti_disparity(tmp_path / "disp.png")
 
     def test_directory_is_not_a_file(self, tmp_path):
@@ -365,11 +367,14 @@ class TestSceneFiles:
         assert deep.dtype == np.uint8 and (deep == 9).all()
 
     def test_image_errors(self, tmp_path):
-        with pytest.raises(InvalidArgumentError, match="left image file.*does not exist"):
+        # FileReadError (ImageReadError when decoding fails): path, problem and kind
+        with pytest.raises(FileReadError, match="none.png: the left image file does not exist"):
             read_scene_image(tmp_path / "none.png", "left image")
         (tmp_path / "junk.png").write_bytes(b"junk")
-        with pytest.raises(InvalidArgumentError, match="right image file.*could not be decoded"):
+        with pytest.raises(ImageReadError,
+                           match="junk.png: the right image file could not be decoded") as exc:
             read_scene_image(tmp_path / "junk.png", "right image")
+        assert exc.value.path == str(tmp_path / "junk.png")
 
     def test_unreadable_file(self, tmp_path, monkeypatch):
         path = tmp_path / "d.png"
@@ -383,8 +388,8 @@ class TestSceneFiles:
             return real_open(name, flags, *args)
 
         monkeypatch.setattr(hopmatch.files.os, "open", refuse)
-        with pytest.raises(InvalidArgumentError, match=r"Middlebury disparity file .*d\.png': "
-                                                       r"cannot read the file: permission denied"):
+        with pytest.raises(FileReadError, match=r"d\.png: cannot read the file: permission "
+                                                r"denied \(the Middlebury disparity file\)"):
             read_middlebury_disparity(path, scale=8)
 
     def test_mask(self, tmp_path):
@@ -419,10 +424,11 @@ class TestSceneFiles:
         assert read_calibration(tmp_path / "k.txt")["P3"].shape == (3, 4)
         assert read_calibration(tmp_path / "m.txt")["doffs"] == pytest.approx(131.111)
         (tmp_path / "u.txt").write_text("focal 100\n")
-        with pytest.raises(InvalidArgumentError, match="neither KITTI"):
+        with pytest.raises(FileReadError, match="u.txt: not a valid calibration file: it is "
+                                                "neither KITTI"):
             read_calibration(tmp_path / "u.txt")
         (tmp_path / "b.txt").write_bytes(b"\xff\xfe\x00\x81")
-        with pytest.raises(InvalidArgumentError, match="calibration file.*not a text file"):
+        with pytest.raises(FileReadError, match="b.txt: the calibration file is not a text"):
             read_calibration(tmp_path / "b.txt")
 
     def test_paths(self, tmp_path):
@@ -431,7 +437,7 @@ class TestSceneFiles:
             as_path(3.5, "folder")
         (tmp_path / "f").touch()
         assert existing_file(str(tmp_path / "f"), "x") == tmp_path / "f"
-        with pytest.raises(InvalidArgumentError, match="thing path .* is not a file"):
+        with pytest.raises(InvalidArgumentError, match="the thing path is not a file"):
             existing_file(tmp_path, "thing")
 
     def test_unknown_value_type(self, tmp_path):
