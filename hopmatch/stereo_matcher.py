@@ -15,6 +15,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from ._interrupts import keeps_interrupts
 from ._params import Configurable, Param, integer
 from ._validate import describe
 from .errors import InvalidArgumentError, InvalidTypeError
@@ -174,6 +175,7 @@ class StereoHopfield(Configurable):
         p["max_disparity"] = float(lo + n - 1) if n else None
         return p
 
+    @keeps_interrupts
     def compute(self, left, right, disparity=None, *, dtype=None) -> np.ndarray:
         """The disparity image of the left view, as ``cv2.StereoMatcher.compute``.
 

@@ -45,6 +45,7 @@ import traceback
 
 import click
 
+from .._interrupts import keeps_interrupts
 from ..errors import HopmatchError
 
 # importing the commands registers them on the group; the names below are the public names
@@ -84,7 +85,9 @@ def main(argv=None) -> int:
     debug = _debug_requested(args)
     try:
         with terminations_as_interrupts():  # SIGTERM/SIGHUP roll a run back as Ctrl-C does
-            rv = cli.main(args=args, prog_name="hopmatch", standalone_mode=False)
+            # Ctrl-C landing in a Numba kernel's return is a SystemError: made Ctrl-C again
+            rv = keeps_interrupts(cli.main)(args=args, prog_name="hopmatch",
+                                            standalone_mode=False)
         return rv if isinstance(rv, int) else 0
     except click.exceptions.Exit as exc:  # --help, --version
         return exc.exit_code

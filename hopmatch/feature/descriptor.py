@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._interrupts import keeps_interrupts
 from .._kernels import descriptor as _k
 from .._validate import as_int, as_points, describe
 from ..errors import BudgetExceededError, InvalidArgumentError, InvalidTypeError
@@ -21,6 +22,7 @@ def window_inside(points: np.ndarray, shape: tuple[int, int], size: int) -> np.n
     return (x - r >= 0) & (y - r >= 0) & (x + r <= w - 1) & (y + r <= h - 1)
 
 
+@keeps_interrupts
 def gradient_windows(g: np.ndarray, points: np.ndarray, size: int) -> np.ndarray:
     """Eqs. 8-9: ``V_i(x) = G(x) - mean_{W_i}(G)`` over the ``size`` x ``size`` window W_i.
 

@@ -8,6 +8,7 @@ from itertools import compress, repeat, starmap
 import cv2
 import numpy as np
 
+from .._interrupts import keeps_interrupts
 from .._params import Configurable, Param, boolean, choice, integer, real
 from .._validate import DEFAULT_MAX_PIXELS, as_flag, as_gray_image, as_mask, as_points
 from ..errors import InvalidArgumentError, InvalidTypeError
@@ -126,6 +127,7 @@ class DericheMoravecDetector(Configurable):
         self._init_params(params)
 
     # -- array-level API ------------------------------------------------------------------
+    @keeps_interrupts
     def feature_image(self, image, name: str = "image") -> np.ndarray:
         """The float32 image G that points and descriptors are measured on (SPEC section 1),
         of ``image`` checked (``max_pixels`` included) and converted to grey; errors name
@@ -138,6 +140,7 @@ class DericheMoravecDetector(Configurable):
         name ``name``."""
         return as_gray_image(image, name, max_pixels=self._params["max_pixels"])
 
+    @keeps_interrupts
     def gray_and_feature_image(self, image, name: str = "image"):
         """``(grey, G)``: ``image`` as :meth:`gray_image` returns it, and the feature image
         G of :meth:`feature_image`; errors name ``name``."""
@@ -145,6 +148,7 @@ class DericheMoravecDetector(Configurable):
         gray = self.gray_image(image, name)
         return gray, feature_image(gray, p["on"], p["alpha"], p["omega"], name)
 
+    @keeps_interrupts
     def points_on(self, g: np.ndarray, mask=None, mask_name: str = "mask"):
         """Moravec points (eqs. 1-2) of the feature image ``g``: ``(points (N, 2) float32
         (x, y), responses (N,) float32)``, strongest first; ``mask`` as for :meth:`detect`."""
@@ -167,12 +171,14 @@ class DericheMoravecDetector(Configurable):
             return mask
         return allowed if mask is None else allowed & mask
 
+    @keeps_interrupts
     def detect_points(self, image, mask=None):
         """Points as arrays: ``(points (N, 2) float32 (x, y), responses (N,), G)``."""
         gray, g = self.gray_and_feature_image(image)
         pts, resp = self.points_on(g, self.detection_mask(gray, mask))
         return pts, resp, g
 
+    @keeps_interrupts
     def describe_points(self, g: np.ndarray, points: np.ndarray):
         """Descriptors (eqs. 8-9) of (x, y) float32 ``points`` on the feature image ``g``:
         ``(keep, descriptors)``, ``keep`` the (N,) bool mask of the points whose descriptor
@@ -182,6 +188,7 @@ class DericheMoravecDetector(Configurable):
         # np.compress: the kept rows, as points[keep] but ten times faster on (N, 2) rows
         return keep, cut_windows(g, np.compress(keep, points, axis=0), size)
 
+    @keeps_interrupts
     def detect_and_describe(self, image, mask=None, *, name: str = "image",
                             mask_name: str = "mask", keep_gray: bool = False):
         """Detect and describe ``image`` with arrays only (what :meth:`detectAndCompute`
@@ -214,6 +221,7 @@ class DericheMoravecDetector(Configurable):
         return keypoints_from_arrays(points, responses, float(self._params["window_size"]))
 
     # -- cv2.Feature2D API ----------------------------------------------------------------
+    @keeps_interrupts
     def detect(self, image, mask=None):
         """Keypoints of ``image`` (a tuple of ``cv2.KeyPoint``), or of each image of a list."""
         if isinstance(image, (list, tuple)):
@@ -222,6 +230,7 @@ class DericheMoravecDetector(Configurable):
         pts, resp, _ = self.detect_points(image, mask)
         return self.keypoints(pts, resp)
 
+    @keeps_interrupts
     def compute(self, image, keypoints, descriptors=None):
         """``(keypoints, descriptors)``: float32 rows (eqs. 8-9), one per kept keypoint.
 
@@ -247,6 +256,7 @@ class DericheMoravecDetector(Configurable):
             return keypoints, desc
         return tuple(compress(keypoints, keep.tolist())), desc
 
+    @keeps_interrupts
     def detectAndCompute(self, image, mask=None, descriptors=None,  # noqa: N802
                          useProvidedKeypoints=False, keypoints=None):  # noqa: N803
         """Detect and describe in one pass (G is computed once).

@@ -8,11 +8,13 @@ import threading
 import cv2
 import numpy as np
 
+from .._interrupts import keeps_interrupts
 from .._params import real
 from .._validate import FLOAT32_MAX, as_gray_image
 from ..errors import InvalidArgumentError
 
 
+@keeps_interrupts
 def deriche_gradient(image, alpha: float = 1.0, omega: float = 0.001) -> np.ndarray:
     """Gradient magnitude ``G = sqrt(Gx**2 + Gy**2)`` with the Canny-Deriche recursive filter.
 

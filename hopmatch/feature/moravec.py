@@ -7,6 +7,7 @@ import math
 import cv2
 import numpy as np
 
+from .._interrupts import keeps_interrupts
 from .._kernels import moravec as _k
 from .._params import integer, real
 from .._validate import as_mask
@@ -114,6 +115,7 @@ def _weighted_response(gq: np.ndarray, scale: float, window_size: int,
     return out
 
 
+@keeps_interrupts
 def moravec_response(image, window_size: int = 5, window_sigma: float = 0.0) -> np.ndarray:
     """Moravec directional variance, eq. 1: ``V(p) = min_theta V_theta(p)``.
 
@@ -162,6 +164,7 @@ def moravec_response(image, window_size: int = 5, window_sigma: float = 0.0) -> 
     return response(g, window_size, window_sigma)
 
 
+@keeps_interrupts
 def moravec_points(
     response,
     nms_size: int = 20,

@@ -9,6 +9,7 @@ import threading
 import cv2
 import numpy as np
 
+from .._interrupts import keeps_interrupts
 from .._params import Configurable, state_params
 
 # The imports marked "noqa: F401" re-export names that lived in this module before the
@@ -253,6 +254,7 @@ class HopfieldMatcher(Configurable):
         return pair, fundamental, generation
 
     # -- pair information (as LightGlueMatcher) ----------------------------------------
+    @keeps_interrupts
     def setPairInfo(self, queryKpts, trainKpts, queryImageSize=None,  # noqa: N802, N803
                     trainImageSize=None):  # noqa: N803
         """Give the keypoints of the left (query) and right (train) image.
@@ -278,6 +280,7 @@ class HopfieldMatcher(Configurable):
         ``cv2.findFundamentalMat`` (``x_r^T F x_l = 0``); None returns to rectified mode."""
         self._set_pair_state(_fundamental=as_fundamental_matrix(F, optional=True))
 
+    @keeps_interrupts
     def estimateFundamentalMatrix(self, queryDescriptors,  # noqa: N802, N803
                                   trainDescriptors) -> EpipolarGeometry:  # noqa: N803
         """Estimate the epipolar geometry of the pair from the pair information and these
@@ -386,6 +389,7 @@ class HopfieldMatcher(Configurable):
         """The parameters as a frozen :data:`~hopmatch.matching.params.MatcherConfig`."""
         return MatcherConfig(**self._params)
 
+    @keeps_interrupts
     def run(self, queryDescriptors, trainDescriptors=None, mask=None,  # noqa: N803
             record_energy: bool = False) -> NetworkResult:
         """Run the network and return everything it computed (:class:`NetworkResult`).
@@ -420,6 +424,7 @@ class HopfieldMatcher(Configurable):
         self._last = result
         return result, pair
 
+    @keeps_interrupts
     def match(self, queryDescriptors, trainDescriptors=None, mask=None):  # noqa: N803
         """The network's matches after disambiguation and the left-right check.
 
@@ -431,6 +436,7 @@ class HopfieldMatcher(Configurable):
         res = self._run(queryDescriptors, trainDescriptors, mask)[0]
         return dmatches(res.query_idx, res.train_idx, res.distances)
 
+    @keeps_interrupts
     def knnMatch(self, queryDescriptors, trainDescriptors=None, k=None,  # noqa: N802, N803
                  mask=None, compactResult=False):  # noqa: N803
         """Up to ``k`` matches per query, ranked by the network's evidence.
@@ -455,6 +461,7 @@ class HopfieldMatcher(Configurable):
         return knn_rows(res, len(pair.query_points), len(pair.train_points), k, mask,
                         compact)
 
+    @keeps_interrupts
     def radiusMatch(self, queryDescriptors, trainDescriptors=None,  # noqa: N802, N803
                     maxDistance=None, mask=None, compactResult=False):  # noqa: N803
         """Every candidate with ``distance <= maxDistance``, per query, best first.

@@ -15,6 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._interrupts import keeps_interrupts
 from .._kernels import candidates as _kc
 from .._kernels import interactions as _ki
 from .._kernels import neighbours as _kn
@@ -336,6 +337,7 @@ def match_pair(pair: PairInfo, query_descriptors, train_descriptors, config: Mat
     return result
 
 
+@keeps_interrupts
 def hopfield_match(left_pts, right_pts, left_desc, right_desc, *, image_size=None,
                    train_image_size=None, mask=None, fundamental_matrix=None,
                    record_energy: bool = False, **params) -> NetworkResult:

@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 
+from .._interrupts import keeps_interrupts
 from .._threads import resolve_threads, run_both, using_threads
 from .._validate import as_fundamental_matrix, check_coordinate_range
 from .._warnings import deferring, give_or_defer, warn
@@ -23,12 +24,7 @@ from ..feature.sharpness import equalise_sharpness
 from . import guided, halves
 from .channels import channels_kept, match_both_greys
 from .confidence import confidence_distances, fields_of_distances
-from .diagnostics import (
-    LooksUnrectifiedError,
-    exposure_note,
-    still_few,
-    warn_if_no_keypoints,
-)
+from .diagnostics import LooksUnrectifiedError, exposure_note, still_few, warn_if_no_keypoints
 from .epipolar_support import support_notes, unsupported
 from .geometry import GeometryWarning, transform_points
 from .guided import guided_pass, guided_rounds
@@ -84,6 +80,7 @@ def stereo_pipeline(params: dict, caller: str = "match_stereo"):
     return DericheMoravecDetector(**det_params), HopfieldMatcher(**match_params)
 
 
+@keeps_interrupts
 def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_matrix=None,
                  rectified: bool | None = None, record_energy: bool = False,
                  detector: DericheMoravecDetector | None = None,
