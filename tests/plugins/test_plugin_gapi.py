@@ -95,7 +95,9 @@ class TestMatchPair:
     def test_errors_found_while_matching_are_hopmatchs_not_cv2s(self):
         """Raised inside the graph's kernel, hopmatch's errors came out as ``cv2.error:
         Python kernel failed with error!`` (before 2026-12-06); match_pair raises them as
-        match_stereo does, and the same compiled graph then matches the next pair."""
+        match_stereo does, and the same compiled graph then matches the next pair. (A range
+        below ``min_disparity`` is now refused before the graph, as kernels() refuses it:
+        test_plugin_gapi_input.py.)"""
         left, right = textured_pair()
         with pytest.raises(InvalidArgumentError, match="`left` and `right` must have the "
                                                        "same height.*got 120 and 100"):

@@ -12,22 +12,54 @@ import cv2 as cv
 import numpy as np
 
 import hopmatch
-from hopmatch.errors import HopmatchError
+from hopmatch.errors import InvalidArgumentError
+from hopmatch.matching.disparity_range import search_range
+from hopmatch.matching.params import check_disparity_order
 from hopmatch.matching.stereo_match import match_detected, split_parameters, stereo_pipeline
 
 from .ops import GDetect, GMatch, GMatchPoints
 
-__all__ = ["kernels", "split_params"]
+__all__ = ["NOT_TAKEN", "kernels", "split_params"]
+
+#: :func:`hopmatch.match_stereo`'s keywords that are not detector or matcher parameters,
+#: which the G-API operations do not take, and why.
+NOT_TAKEN = {
+    "rectified": "GMatch matches as match_stereo(left, right, **params) does with "
+                 "rectified=None (the rows searched, a pair that does not look rectified "
+                 "matched as an unrectified one), and GMatchPoints searches the rows",
+    "fundamental_matrix": "the operations take no geometry (GMatch as match_stereo with "
+                          "rectified=None, GMatchPoints along the rows)",
+    "mask_left": "G-API kernels receive only their graph inputs, the two images",
+    "mask_right": "G-API kernels receive only their graph inputs, the two images",
+    "detector": "give the detector's parameters as keywords instead",
+    "matcher": "give the matcher's parameters as keywords instead",
+    "threads": "set hopmatch.setNumThreads(n) instead",
+    "record_energy": "the operations output the matches only",
+}
+
 
 def split_params(params: dict) -> tuple[dict, dict]:
     """``(detector params, matcher params)`` of ``params``, checked by both classes
-    (:func:`hopmatch.matching.stereo_match.split_parameters`; ``preset`` goes to both).
+    (:func:`hopmatch.matching.stereo_match.split_parameters`; ``preset`` goes to both),
+    and checked as matching checks them: a ``max_disparity`` below ``min_disparity``
+    (None: 0 when ``max_disparity`` is given).
 
-    Unknown names raise ``InvalidArgumentError`` listing the valid ones; invalid values
-    raise the classes' own errors.
+    Unknown names raise ``InvalidArgumentError`` listing the valid ones (the keywords of
+    :data:`NOT_TAKEN` saying why they are not taken); invalid values raise the classes' own
+    errors. Budgets (``max_pixels``, ``max_neurons``...) are checked for validity only:
+    whether one suffices depends on the images, and is found while matching
+    (``BudgetExceededError``).
     """
+    for name in sorted(set(params) & set(NOT_TAKEN)):
+        raise InvalidArgumentError(
+            f"hopmatch_gapi does not take `{name}`: {NOT_TAKEN[name]}; call "
+            f"hopmatch.match_stereo(left, right, {name}=...) for it", argument=name)
     det, mat = split_parameters(params, caller="hopmatch_gapi")
-    stereo_pipeline(params, caller="hopmatch_gapi")  # validate now, not inside the graph
+    _, matcher = stereo_pipeline(params, caller="hopmatch_gapi")  # validate now, not in a graph
+    config = matcher.config()
+    if config.max_disparity is not None:  # the range as matching resolves it (min None: 0)
+        no_points = np.zeros((0, 2), np.float32)
+        check_disparity_order(*search_range(config, None, no_points, no_points))
     return det, mat
 
 
@@ -51,13 +83,14 @@ def _describe_and_match(detector, matcher, left, pts_left, right, pts_right):
 
 
 class RaisedInKernel:
-    """Where a kernel made by :func:`managed_kernels` leaves the hopmatch error it caught
+    """Where a kernel made by :func:`managed_kernels` leaves the exception it caught
     (``error``, None when none), for :func:`~hopmatch_gapi.match_pair` to raise after the
-    graph: raised inside a G-API kernel, it would come out as ``cv2.error: Python kernel
-    failed with error!`` with the real message printed to stderr."""
+    graph: raised inside a G-API kernel, any exception (hopmatch's errors, a warning turned
+    into an error, ``KeyboardInterrupt``...) would come out as ``cv2.error: Python kernel
+    failed with error!`` with the real one printed to stderr."""
 
     def __init__(self):
-        self.error: HopmatchError | None = None
+        self.error: BaseException | None = None
 
 
 def _no_match():
@@ -65,9 +98,10 @@ def _no_match():
 
 
 def managed_kernels(**params) -> tuple["cv.GKernelPackage", RaisedInKernel]:
-    """:func:`kernels` whose :class:`GMatch` kernel catches hopmatch's errors (bad images,
-    a disparity range that does not fit...) into the returned :class:`RaisedInKernel` and
-    gives no match instead; what :func:`~hopmatch_gapi.match_pair` compiles."""
+    """:func:`kernels` whose :class:`GMatch` kernel catches whatever it raises (hopmatch's
+    errors, warnings turned into errors, ``KeyboardInterrupt``: any ``BaseException``) into
+    the returned :class:`RaisedInKernel` and gives no match instead; what
+    :func:`~hopmatch_gapi.match_pair` compiles."""
     raised = RaisedInKernel()
     return _package(params, raised), raised
 
@@ -79,20 +113,32 @@ def kernels(**params) -> "cv.GKernelPackage":
     ----------
     **params
         Any :class:`hopmatch.DericheMoravecDetector` or :class:`hopmatch.HopfieldMatcher`
-        parameter (``preset`` applies to both), as for :func:`hopmatch.match_stereo`.
+        parameter (``preset`` applies to both), as for :func:`hopmatch.match_stereo`;
+        match_stereo's other keywords (``rectified``, ``fundamental_matrix``, the masks...)
+        are not taken (:data:`NOT_TAKEN` says why). Checked at once, as
+        :func:`~hopmatch_gapi.match_pair` checks them (:func:`split_params`): what the two
+        classes refuse, and a ``max_disparity`` below ``min_disparity`` (0 when None).
 
     Returns
     -------
     cv2.GKernelPackage
         Pass it as ``args=cv.gapi.compile_args(kernels(...))`` to ``apply`` or
         ``compileStreaming``.
+
+    Raises
+    ------
+    InvalidArgumentError, InvalidTypeError
+        For unknown or invalid parameters, naming the parameter. A budget
+        (``max_pixels``, ``max_neurons``...) that is valid but too small for the images
+        fails only when the graph runs, inside it (``cv2.error``, as every error raised in
+        a graph of your own).
     """
     return _package(params, None)
 
 
 def _package(params: dict, raised: RaisedInKernel | None) -> "cv.GKernelPackage":
-    """The kernel package of :func:`kernels`; with ``raised``, the :class:`GMatch`
-    kernel's hopmatch errors are kept there rather than raised."""
+    """The kernel package of :func:`kernels`; with ``raised``, what the :class:`GMatch`
+    kernel raises is kept there rather than raised."""
     det_params, match_params = split_params(params)
 
     @cv.gapi.kernel(GDetect)
@@ -108,7 +154,7 @@ def _package(params: dict, raised: RaisedInKernel | None) -> "cv.GKernelPackage"
         def run(left, right):
             try:
                 res = hopmatch.match_stereo(left, right, **params)
-            except HopmatchError as exc:
+            except BaseException as exc:  # noqa: B036 (KeyboardInterrupt too: forwarded)
                 if raised is None:
                     raise
                 raised.error = exc
