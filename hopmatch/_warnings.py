@@ -23,11 +23,13 @@ _deferred: contextvars.ContextVar = contextvars.ContextVar("hopmatch_deferred_wa
 
 def caller_stacklevel() -> int:
     """The ``stacklevel`` that makes ``warnings.warn``, called by the caller of this
-    function, report the first frame whose code lies outside the hopmatch package."""
+    function, report the first frame whose code lies outside the hopmatch package and its
+    plugins (modules named ``hopmatch_*``: ``hopmatch_gapi``, ``hopmatch_dask``)."""
     frame = sys._getframe(1)  # the frame that will call warnings.warn: stacklevel 1
     level = 1
-    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(
-            _PACKAGE_DIR):
+    while frame is not None and (
+            os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE_DIR)
+            or str(frame.f_globals.get("__name__", "")).startswith("hopmatch_")):
         frame = frame.f_back
         level += 1
     return level

@@ -111,6 +111,8 @@ class TestForwardedFromTheKernel:
                 warnings.simplefilter("always")
                 call(flat, flat)
             seen.append([(w.category, str(w.message)) for w in caught])
+            # attributed to this line, not to a frame of hopmatch or of the plugin
+            assert {w.filename for w in caught} == {__file__}, call
         assert seen[0] and seen[1] == seen[0]
         assert seen[0][0][0] is FewMatchesWarning
 
