@@ -87,7 +87,8 @@ class TestBatch:
         for i in range(12):  # same bytes as matching directly
             assert (out / f"p{i:02d}.csv").read_text() == _expected_table(i)
         rows = _summary(out)
-        assert list(rows[0]) == ["name", "status", "matches", "seconds", "error"]
+        assert list(rows[0]) == ["name", "status", "matches", "seconds", "error", "warning"]
+        assert all(r["warning"] == "" for r in rows)  # textured pairs: nothing to warn about
         assert [r["name"] for r in rows] == [f"p{i:02d}" for i in range(12)]
         assert all(r["status"] == "ok" and int(r["matches"]) > 20 for r in rows)
         assert len({o.worker for o in report.outcomes}) == 2  # both workers took pairs
@@ -418,7 +419,7 @@ class TestCommandLine:
          "must be odd"),
         (["batch", "{csv}", "--out", "{tmp}/o", "--workers", "2", "--scheduler",
           "tcp://127.0.0.1:1"], "command line", "cannot be used with --scheduler"),
-        (["batch", "{csv}", "--out", "{csv}"], "{csv}", "exists and is not a folder"),
+        (["batch", "{csv}", "--out", "{csv}"], "--out", "exists and is not a folder"),
         (["batch", "{csv}", "--out", "{tmp}/o", "--unrectified", "--max-disparity", "12"],
          "--max-disparity", "rectified=False"),
     ])

@@ -10,25 +10,40 @@ rerun skips the pairs whose result is already there.
 from __future__ import annotations
 
 import contextlib
-import os
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from hopmatch.errors import InvalidArgumentError, InvalidTypeError
-from hopmatch.files import write_text_atomic
+from hopmatch.errors import FileWriteError, InvalidArgumentError, InvalidTypeError
+from hopmatch.files import os_reason, write_text_atomic
 from hopmatch.matching.stereo_match import stereo_pipeline
 
+from .checks import (
+    PROBE_TIMEOUT,
+    SchedulerAddressError,
+    check_client,
+    check_env,
+    check_images,
+    check_out,
+    check_progress,
+    check_scheduler,
+    check_workers,
+    cores,
+    describe,
+    make_folder,
+)
 from .pairs import Pair, as_pairs
-from .results import complete_rows, finished_counts, summary_table
-from .tasks import batch_task, match_pair
+from .results import complete_rows, finished_counts, short_text, summary_table
+from .tasks import batch_task, give_warnings, match_pair, warnings_text
 
-__all__ = ["BatchReport", "Outcome", "SchedulerAddressError", "check_params",
+__all__ = ["BatchReport", "Outcome", "PROBE_TIMEOUT", "SchedulerAddressError", "check_params",
            "check_scheduler", "local_cluster", "match_pairs", "run_batch"]
 
-#: Seconds to wait for a scheduler given by address.
+#: Seconds to wait for a scheduler given by address (after :func:`check_scheduler` found
+#: that it accepts connections).
 CONNECT_TIMEOUT = 30
 #: Seconds between two writes of summary.csv during a batch (it is also written at the
 #: end, and when the batch is interrupted): results finished before a hard kill are
@@ -36,85 +51,50 @@ CONNECT_TIMEOUT = 30
 SUMMARY_EVERY = 2.0
 
 
-def check_params(params: dict, caller: str = "hopmatch_dask") -> dict:
+def check_params(params: Mapping, caller: str = "hopmatch_dask") -> dict:
     """``params`` if :func:`hopmatch.match_stereo` accepts them, else its error (raised here,
     on the client, before anything is submitted).
 
-    The parameters are shared between the detector and the matcher by the library's one rule,
+    ``params`` is a mapping of parameter names to values (else
+    :class:`~hopmatch.errors.InvalidTypeError` naming ``params``). The parameters are shared
+    between the detector and the matcher by the library's one rule,
     :func:`hopmatch.matching.stereo_match.stereo_pipeline`; an unknown name raises
     :class:`~hopmatch.errors.InvalidArgumentError` naming ``caller``. ``rectified``
     (``match_stereo``'s own argument) may be given too: ``False`` for unrectified pairs,
     whose geometry and disparity range are estimated (then without ``max_disparity``),
     ``True`` for the rows only, None (as left out) for match_stereo's own choice.
+
+    Examples
+    --------
+    >>> check_params({"max_disparity": 16})
+    {'max_disparity': 16}
+    >>> try:
+    ...     check_params({"max_disparity": "16"})
+    ... except TypeError as exc:
+    ...     print(exc.argument, "|", exc)
+    max_disparity | `max_disparity` must be a number, got str '16'
     """
+    if not isinstance(params, Mapping):
+        raise InvalidTypeError(f"`params` must be a mapping of parameter names to values, got "
+                               f"{describe(params)}", argument="params")
     rest = {k: v for k, v in params.items() if k != "rectified"}
-    if "rectified" in params:
-        rectified = params["rectified"]
-        if rectified is not None and not isinstance(rectified, (bool, np.bool_)):
-            raise InvalidTypeError(
-                f"`rectified` must be None, True or False, got {rectified!r}",
-                argument="rectified")
-        if rectified is not None and not rectified and rest.get("max_disparity") is not None:
-            raise InvalidArgumentError(
-                f"{caller} got rectified=False and max_disparity={rest['max_disparity']:g}: "
-                "the disparity range of an unrectified pair is found with its geometry; "
-                "leave max_disparity=None", argument="max_disparity")
-    stereo_pipeline(rest, caller)
+    rectified = params.get("rectified")
+    if rectified is not None and not isinstance(rectified, (bool, np.bool_)):
+        raise InvalidTypeError(f"`rectified` must be None, True or False, got "
+                               f"{describe(rectified)}", argument="rectified")
+    stereo_pipeline(rest, caller)  # every value checked (types first) by its class
+    if rectified is not None and not rectified and rest.get("max_disparity") is not None:
+        raise InvalidArgumentError(
+            f"{caller} got rectified=False and max_disparity={rest['max_disparity']!r}: "
+            "the disparity range of an unrectified pair is found with its geometry; "
+            "leave max_disparity=None", argument="max_disparity")
     return dict(params)
 
 
-#: Seconds :func:`check_scheduler` waits for a TCP connection to the scheduler.
-PROBE_TIMEOUT = 1.0
-
-
-class SchedulerAddressError(InvalidArgumentError):
-    """The scheduler address cannot be parsed, or nothing answers there."""
-
-
-def check_scheduler(address: str, probe: bool = True) -> str:
-    """``address`` if it is a Dask scheduler address that answers, else
-    :class:`SchedulerAddressError` saying why, within about :data:`PROBE_TIMEOUT` seconds
-    (instead of an internal error from ``distributed``, or a wait of
-    :data:`CONNECT_TIMEOUT` seconds on a port where nothing listens).
-
-    The scheme must be one ``distributed`` knows (``tcp://`` by default); a ``tcp://`` or
-    ``tls://`` address must have a host and a numeric port, and, with ``probe``, accept a
-    TCP connection.
-    """
-    import socket
-
-    from distributed.comm import registry
-    from distributed.comm.addressing import parse_address, parse_host_port
-
-    if not isinstance(address, str) or not address.strip():
-        raise SchedulerAddressError(f"`scheduler` must be an address such as "
-                                    f"tcp://10.0.0.5:8786, got {address!r}",
-                                    argument="scheduler")
-    try:
-        scheme, location = parse_address(address)
-        registry.get_backend(scheme)
-        host, port = parse_host_port(location, 8786) if scheme in ("tcp", "tls") else ("", 0)
-    except (ValueError, TypeError) as exc:
-        raise SchedulerAddressError(f"`scheduler` {address!r} is not a Dask scheduler "
-                                    f"address ({' '.join(str(exc).split())}); expected "
-                                    "e.g. tcp://10.0.0.5:8786", argument="scheduler") from None
-    if scheme in ("tcp", "tls"):
-        if not host:
-            raise SchedulerAddressError(f"`scheduler` {address!r} names no host; expected "
-                                        "e.g. tcp://10.0.0.5:8786", argument="scheduler")
-        if not 0 < port < 65536:
-            raise SchedulerAddressError(f"`scheduler` {address!r}: port {port} is not in "
-                                        "[1, 65535]", argument="scheduler")
-        if probe:
-            try:
-                socket.create_connection((host, port), timeout=PROBE_TIMEOUT).close()
-            except OSError as exc:
-                reason = exc.strerror or type(exc).__name__
-                raise SchedulerAddressError(
-                    f"`scheduler` {address!r}: cannot reach {host}:{port} ({reason}); is a "
-                    "scheduler running there (dask scheduler --port ...)?",
-                    argument="scheduler") from None
-    return address
+def _max_pixels(params: dict) -> int | None:
+    """The detector's ``max_pixels`` for ``params`` (checked by :func:`check_params`)."""
+    detector, _ = stereo_pipeline({k: v for k, v in params.items() if k != "rectified"})
+    return detector.get_params()["max_pixels"]
 
 
 def _key(prefix: str, pair: Pair, params: dict) -> str:
@@ -141,7 +121,20 @@ def match_pairs(pairs, client=None, **params):
     -------
     list of distributed.Future or dask.bag.Bag
         One :class:`~hopmatch_dask.PairResult` per pair, in the order of ``pairs``. A pair
-        that fails raises its error from ``future.result()`` / ``bag.compute()``.
+        that fails raises its error from ``future.result()`` / ``bag.compute()``. The
+        warnings matching gave on the worker (e.g. a
+        :class:`~hopmatch.errors.FewMatchesWarning` for a pair without matches) are in
+        ``result.warnings`` and given again (``warnings.warn``, same category and message)
+        where the result arrives: ``future.result()``, ``client.gather``.
+
+    Raises
+    ------
+    InvalidTypeError, InvalidArgumentError
+        Before anything is submitted: bad ``pairs`` (their types, names, image types),
+        ``client`` (not a running ``distributed.Client``) or parameters.
+    BudgetExceededError
+        An array image of more pixels than the detector's ``max_pixels`` (the parameters',
+        else 50 million), before anything is sent.
 
     Examples
     --------
@@ -154,7 +147,8 @@ def match_pairs(pairs, client=None, **params):
     """
     params = check_params(params, "match_pairs")
     items = as_pairs(pairs)
-    if client is not None:
+    check_images(items, _max_pixels(params))
+    if check_client(client) is not None:
         return [client.submit(match_pair, p, params, key=_key("hopmatch-pair", p, params),
                               pure=True) for p in items]
     import dask.bag as db
@@ -168,6 +162,8 @@ class Outcome:
 
     ``status`` is ``"ok"`` (matched now), ``"skipped"`` (its complete result was already
     there), ``"failed"`` (``error`` says why) or ``"not run"`` (the batch was interrupted).
+    ``warning`` holds the warnings matching gave for an ``ok`` pair (``"FewMatchesWarning:
+    no matches: ..."``; several joined by ``" | "``), empty when there were none.
     """
 
     name: str
@@ -176,6 +172,7 @@ class Outcome:
     seconds: float | None = None
     error: str = ""
     worker: str = ""
+    warning: str = ""
 
 
 @dataclass
@@ -200,17 +197,21 @@ def local_cluster(workers: int | None = None, **kwargs):
     """A ``distributed.LocalCluster`` on this machine: ``workers`` processes (default: one
     per core) of one thread each, listening on 127.0.0.1 only, no dashboard.
 
+    ``workers`` is None or an int from 1 to :func:`~hopmatch_dask.checks.max_local_workers`
+    (4 per core), else :class:`~hopmatch.errors.InvalidTypeError` /
+    ``InvalidArgumentError`` naming ``workers``, before anything starts.
     OpenCV in each worker runs on one thread (``OPENCV_FOR_THREADS_NUM=1``): the workers
     already use every core, and OpenCV's own threads only add contention (measured by
     ``benchmarks/dask_batch.py``, see ``docs/cluster.md``).
-    ``kwargs`` go to ``LocalCluster`` (``env`` is merged).
+    ``kwargs`` go to ``LocalCluster`` (``env``, None or a mapping, is merged).
     """
+    workers = check_workers(workers)
+    env = check_env(kwargs.pop("env", None))
     from distributed import LocalCluster
 
     if workers is None:
-        workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") \
-            else (os.cpu_count() or 1)
-    env = {"OPENCV_FOR_THREADS_NUM": "1", **kwargs.pop("env", {})}
+        workers = cores()
+    env = {"OPENCV_FOR_THREADS_NUM": "1", **env}
     options = dict(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                    dashboard_address=None, env=env,
                    # the scheduler's small HTTP server (health, metrics): a free port on
@@ -221,19 +222,40 @@ def local_cluster(workers: int | None = None, **kwargs):
 
 
 @contextlib.contextmanager
-def _client_for(client, scheduler, workers):
-    """The client to use: ``client``, one connected to ``scheduler``, or a local cluster's."""
-    if client is not None:
-        yield client
-        return
+def _connected(scheduler: str):
+    """A client of the scheduler at ``scheduler`` (checked by :func:`check_scheduler`); a
+    failure to connect raises :class:`SchedulerAddressError` naming the address."""
     from distributed import Client
 
-    if scheduler:
-        with Client(scheduler, timeout=CONNECT_TIMEOUT) as c:
-            yield c
-        return
+    try:
+        c = Client(scheduler, timeout=CONNECT_TIMEOUT)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise SchedulerAddressError(
+            f"`scheduler` {scheduler!r}: cannot connect to a Dask scheduler there "
+            f"({short_text(f'{type(exc).__name__}: {exc}', 300)})",
+            argument="scheduler") from None
+    with c:
+        yield c
+
+
+@contextlib.contextmanager
+def _local_client(workers):
+    from distributed import Client
+
     with local_cluster(workers) as cluster, Client(cluster) as c:
         yield c
+
+
+def _check_sources(client, scheduler, workers) -> None:
+    """Refuse contradictory choices of the cluster, naming them."""
+    if client is not None and scheduler is not None:
+        raise InvalidArgumentError("give `client` or `scheduler`, not both (the client is "
+                                   "already connected to its scheduler)", argument="scheduler")
+    if workers is not None and (client is not None or scheduler is not None):
+        given = "`client`" if client is not None else "`scheduler`"
+        raise InvalidArgumentError(f"`workers` sets the size of the local cluster; it cannot "
+                                   f"be given with {given} (size that cluster where it runs)",
+                                   argument="workers")
 
 
 def run_batch(pairs, out, *, client=None, scheduler: str | None = None,
@@ -243,14 +265,15 @@ def run_batch(pairs, out, *, client=None, scheduler: str | None = None,
     Parameters
     ----------
     pairs : sequence of Pair, (left, right) or (left, right, name)
-        Image paths the workers can read (see :func:`~hopmatch_dask.read_pairs`).
+        Image paths the workers can read (see :func:`~hopmatch_dask.read_pairs`), or arrays.
     out : str or pathlib.Path
         Output folder (created if missing). Each result has the columns of
         ``hopmatch match``'s matches.csv.
     client : distributed.Client, optional
-        Use this cluster. Else ``scheduler`` (an address such as ``tcp://10.0.0.5:8786``) is
-        connected to, else a :func:`local_cluster` of ``workers`` processes is started and
-        closed at the end.
+        Use this cluster (a running client). Else ``scheduler`` (an address such as
+        ``tcp://10.0.0.5:8786``) is connected to, else a :func:`local_cluster` of
+        ``workers`` processes is started and closed at the end. ``client``, ``scheduler``
+        and ``workers`` exclude one another.
     progress : callable, optional
         Called as ``progress(outcome, done, total)`` after each pair.
     **params
@@ -260,6 +283,22 @@ def run_batch(pairs, out, *, client=None, scheduler: str | None = None,
     -------
     BatchReport
         ``report.ok`` is True when every pair has its result.
+
+    Raises
+    ------
+    InvalidTypeError, InvalidArgumentError
+        A bad argument (``pairs``, a pair's name or images, ``out``, ``client``,
+        ``scheduler``, ``workers``, ``progress``, a parameter), or contradictory ones.
+    FileWriteError
+        ``out`` cannot be a folder written to (an ``OSError`` too).
+    SchedulerAddressError
+        ``scheduler`` is not a ``tcp://`` or ``tls://`` address, or no scheduler answers
+        there.
+    BudgetExceededError
+        An array image of more pixels than the detector's ``max_pixels``.
+
+    All of them are raised before anything is written, started or submitted (a scheduler is
+    connected to before ``out`` is created).
 
     Notes
     -----
@@ -272,12 +311,30 @@ def run_batch(pairs, out, *, client=None, scheduler: str | None = None,
     other parameters). A pair whose images cannot be read
     or matched is recorded as ``failed`` in summary.csv and the others go on. A worker lost
     mid-task has its tasks run again elsewhere (up to ``distributed.scheduler.allowed-failures``
-    times, 3 by default, then the pair fails with ``KilledWorker``).
+    times, 3 by default, then the pair fails with ``KilledWorker``). The warnings matching
+    gave for a pair (a pair without matches gives a
+    :class:`~hopmatch.errors.FewMatchesWarning` saying why) are given again on the client
+    and recorded in the ``warning`` column of summary.csv.
     """
     params = check_params(params, "run_batch")
     items = as_pairs(pairs)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    check_images(items, _max_pixels(params))
+    out = check_out(out)
+    check_progress(progress)
+    check_client(client)
+    workers = check_workers(workers)
+    _check_sources(client, scheduler, workers)
+    if scheduler is not None:
+        check_scheduler(scheduler)
+
+    with contextlib.ExitStack() as stack:
+        if scheduler is not None:  # connected before anything is written
+            client = stack.enter_context(_connected(scheduler))
+        make_folder(out)
+        return _batch(items, out, params, progress, client, workers, stack)
+
+
+def _batch(items, out: Path, params: dict, progress, client, workers, stack) -> BatchReport:
     t0 = time.perf_counter()
     outcomes: dict[str, Outcome] = {}
     total, done = len(items), 0
@@ -308,9 +365,10 @@ def run_batch(pairs, out, *, client=None, scheduler: str | None = None,
     n_workers = 0
     try:
         if todo:
-            with _client_for(client, scheduler, workers) as c:
-                n_workers = len(c.nthreads())
-                _run(c, todo, params, out, record)
+            if client is None:
+                client = stack.enter_context(_local_client(workers))
+            n_workers = len(client.nthreads())
+            _run(client, todo, params, out, record)
     finally:
         final = ordered()
         write_text_atomic(out / "summary.csv", summary_table(final))
@@ -331,23 +389,28 @@ def _run(client, todo: list[Pair], params: dict, out: Path, record) -> None:
             try:
                 r = f.result()
             except Exception as exc:  # KilledWorker, a cancelled task, a lost cluster...
-                record(Outcome(p.name, "failed", error=f"{type(exc).__name__}: "
-                                                       f"{' '.join(str(exc).split())}"))
+                record(Outcome(p.name, "failed",
+                               error=short_text(f"{type(exc).__name__}: {exc}")))
                 continue
             finally:
                 f.release()
             if r["status"] != "ok":
                 record(Outcome(p.name, "failed", seconds=r.get("seconds"),
-                               error=r.get("error", ""), worker=r.get("worker", "")))
+                               error=short_text(r.get("error", "")),
+                               worker=r.get("worker", "")))
                 continue
             try:
                 write_text_atomic(out / f"{p.name}.csv", r["csv"])
             except OSError as exc:
+                error = str(exc) if isinstance(exc, FileWriteError) else \
+                    f"cannot write {out / (p.name + '.csv')}: {os_reason(exc)}"
                 record(Outcome(p.name, "failed", seconds=r["seconds"], worker=r["worker"],
-                               error=f"cannot write {out / (p.name + '.csv')}: "
-                                     f"{exc.strerror or exc}"))
+                               error=short_text(error)))
                 continue
-            record(Outcome(p.name, "ok", r["matches"], r["seconds"], worker=r["worker"]))
+            caught = r.get("warnings", ())
+            give_warnings(caught, stacklevel=5)  # _run, _batch, run_batch: the caller's line
+            record(Outcome(p.name, "ok", r["matches"], r["seconds"], worker=r["worker"],
+                           warning=warnings_text(caught)))
     finally:
         if futures:  # interrupted: do not leave work running on a shared cluster
             client.cancel(list(futures))

@@ -17,16 +17,18 @@ ran but some pairs failed (see DIR/summary.csv), 2 for bad input, 1 for internal
 
 from __future__ import annotations
 
-import os
 import sys
+import warnings
+from pathlib import Path
 
 import click
 
 import hopmatch
 from hopmatch.cli import given_parameters, parameter_options
-from hopmatch.errors import HopmatchError
+from hopmatch.errors import HopmatchError, HopmatchWarning
 
 from .batch import check_params, check_scheduler, run_batch
+from .checks import check_out, check_workers
 from .pairs import read_pairs
 
 __all__ = ["EXIT_PAIRS_FAILED", "batch"]
@@ -61,6 +63,15 @@ class _Progress:
             self.bar = None
 
 
+def _strip(exc: HopmatchError, name: str) -> str:
+    """The message of ``exc`` on one line, without its leading "`name` " or "`name`: "."""
+    message = " ".join(str(exc).split())
+    for prefix in (f"`{name}`: ", f"`{name}` "):
+        if message.startswith(prefix):
+            return message[len(prefix):]
+    return message
+
+
 def _stderr_is_terminal() -> bool:
     try:
         return sys.stderr.isatty()
@@ -76,7 +87,8 @@ def _stderr_is_terminal() -> bool:
               help="Address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: "
                    "start a local cluster on this machine).")
 @click.option("--workers", type=click.IntRange(min=1), metavar="N",
-              help="Worker processes of the local cluster [default: one per core].")
+              help="Worker processes of the local cluster [default: one per core; at most "
+                   "4 per core].")
 @click.option("--unrectified", is_flag=True,
               help="The pairs are not rectified and their geometry is unknown: estimate "
                    "each pair's fundamental matrix and disparity range from the pair, as "
@@ -90,7 +102,8 @@ def batch(ctx, pairs_csv, out, scheduler, workers, unrectified, **params):
     are relative to PAIRS.csv's folder; without a name, a pair is named after its left
     image). Each pair is matched on a worker and written to DIR/<name>.csv (the columns of
     'hopmatch match': left_x,left_y,right_x,right_y,disparity,distance), then
-    DIR/summary.csv lists name,status,matches,seconds,error for all pairs.
+    DIR/summary.csv lists name,status,matches,seconds,error,warning for all pairs
+    (warning: why an ok pair has no or few matches).
 
     Results are written under a temporary name and renamed when complete; a rerun skips the
     pairs whose result is there. A pair that fails (missing or corrupt image...) is
@@ -110,8 +123,7 @@ def batch(ctx, pairs_csv, out, scheduler, workers, unrectified, **params):
         try:
             check_scheduler(scheduler)
         except HopmatchError as exc:
-            message = " ".join(str(exc).split())
-            raise click.BadParameter(message.removeprefix("`scheduler` "),
+            raise click.BadParameter(_strip(exc, "scheduler"),
                                      param_hint="--scheduler") from None
     try:
         check_params(given, "hopmatch batch")
@@ -127,28 +139,30 @@ def batch(ctx, pairs_csv, out, scheduler, workers, unrectified, **params):
         pairs = read_pairs(pairs_csv)
     except HopmatchError as exc:
         message = str(exc)
-        prefix = f"{pairs_csv}: "
-        raise click.BadParameter(message[len(prefix):] if message.startswith(prefix)
-                                 else message, param_hint=pairs_csv) from None
-    if os.path.exists(out) and not os.path.isdir(out):
-        raise click.BadParameter("exists and is not a folder", param_hint=out)
+        for prefix in (f"{pairs_csv}: ", f"{pairs_csv} ", f"{Path(pairs_csv)} "):
+            if message.startswith(prefix):
+                message = message[len(prefix):]
+                break
+        raise click.BadParameter(message, param_hint=pairs_csv) from None
     try:
-        os.makedirs(out, exist_ok=True)
-    except OSError as exc:
-        raise click.BadParameter(f"cannot create the folder: {exc.strerror or exc}",
-                                 param_hint=out) from None
-    if not os.access(out, os.W_OK):
-        raise click.BadParameter("cannot write in the folder: permission denied",
-                                 param_hint=out)
+        check_workers(workers)
+    except HopmatchError as exc:
+        raise click.BadParameter(_strip(exc, "workers"), param_hint="--workers") from None
+    try:
+        check_out(out)
+    except HopmatchError as exc:
+        raise click.BadParameter(_strip(exc, "out"), param_hint="--out") from None
 
     bar = _Progress(len(pairs), enabled=not quiet and _stderr_is_terminal())
     try:
-        report = run_batch(pairs, out, scheduler=scheduler, workers=workers, progress=bar,
-                           **given)
-    except OSError as exc:
-        if scheduler:
-            raise click.BadParameter(f"cannot reach the scheduler: {exc}",
-                                     param_hint="--scheduler") from None
+        with warnings.catch_warnings():  # said per pair below (and in summary.csv)
+            warnings.simplefilter("ignore", HopmatchWarning)
+            report = run_batch(pairs, out, scheduler=scheduler, workers=workers, progress=bar,
+                               **given)
+    except HopmatchError as exc:
+        if exc.argument in ("scheduler", "out"):  # unreachable scheduler, folder refused
+            raise click.BadParameter(_strip(exc, exc.argument),
+                                     param_hint="--" + exc.argument) from None
         raise
     finally:
         bar.close()
@@ -163,5 +177,7 @@ def batch(ctx, pairs_csv, out, scheduler, workers, unrectified, **params):
         for o in report.outcomes:
             if o.status == "failed":
                 click.echo(f"failed: {o.name}: {o.error}", err=True)
+            elif o.warning:
+                click.echo(f"warning: {o.name}: {o.warning}", err=True)
         click.echo(f"output: {report.out} (<name>.csv per pair, summary.csv)")
     return 0 if report.ok else EXIT_PAIRS_FAILED

@@ -5,17 +5,23 @@ from __future__ import annotations
 import csv
 import os
 import re
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hopmatch.errors import FileReadError, InvalidArgumentError, InvalidTypeError
-from hopmatch.files import MAX_FILE_BYTES, read_input_bytes
+import numpy as np
 
-__all__ = ["Pair", "PairsFileError", "as_pairs", "read_pairs"]
+from hopmatch.errors import FileReadError, InvalidArgumentError, InvalidTypeError
+from hopmatch.files import MAX_FILE_BYTES, NAME_MAX, read_input_bytes
+
+__all__ = ["MAX_NAME_BYTES", "Pair", "PairsFileError", "as_pairs", "check_name",
+           "read_pairs"]
 
 #: Names become file names: letters, digits, '.', '_', '-'; not starting with '.'.
-_NAME = re.compile(r"^[A-Za-z0-9_-][A-Za-z0-9._-]*$")
+_NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]*\Z")
+#: Longest pair name: ``<name>.csv`` is a file name of at most ``NAME_MAX`` (255) bytes.
+MAX_NAME_BYTES = NAME_MAX - len(".csv")
 _RESERVED = {"summary"}
 _COLUMNS = ("left", "right", "name")
 
@@ -34,16 +40,45 @@ class Pair:
     right: Any
 
 
-def check_name(name: str, where: str = "name") -> str:
-    """``name`` if it can name a result file, else ``InvalidArgumentError`` saying why."""
-    if not isinstance(name, str) or not _NAME.match(name):
+def _shown(name) -> str:
+    """``repr(name)``, cut to 60 characters for a message."""
+    text = repr(name)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def check_name(name: str, where: str = "name", argument: str = "name") -> str:
+    """``name`` if it can name a result file, else ``InvalidTypeError`` (not a str) or
+    ``InvalidArgumentError`` saying why.
+
+    A name is at most :data:`MAX_NAME_BYTES` characters of letters, digits, '.', '_' and
+    '-', not starting with '.', and not ``summary`` (any case).
+
+    Examples
+    --------
+    >>> check_name("scene-01")
+    'scene-01'
+    >>> try:
+    ...     check_name("../up", "`pairs[0]`")
+    ... except ValueError as exc:
+    ...     print(exc.argument, "|", str(exc)[:45])
+    name | `pairs[0]`: '../up' cannot name a result file
+    """
+    if not isinstance(name, str):
+        raise InvalidTypeError(f"{where}: the name must be a str (it names the result file "
+                               f"<name>.csv), got {type(name).__name__} {_shown(name)}",
+                               argument=argument)
+    if len(name.encode("utf-8", "surrogatepass")) > MAX_NAME_BYTES:
         raise InvalidArgumentError(
-            f"{where}: {name!r} cannot name a result file; use letters, digits, '.', '_' and "
-            "'-' (not starting with '.')"
-        )
+            f"{where}: the name {_shown(name)} is {len(name.encode('utf-8', 'surrogatepass'))}"
+            f" bytes long; a name is at most {MAX_NAME_BYTES} (<name>.csv is a file name, "
+            f"of at most {NAME_MAX} bytes)", argument=argument)
+    if not _NAME.match(name):
+        raise InvalidArgumentError(
+            f"{where}: {_shown(name)} cannot name a result file; use letters, digits, '.', "
+            "'_' and '-' (not starting with '.')", argument=argument)
     if name.lower() in _RESERVED:
         raise InvalidArgumentError(f"{where}: {name!r} is reserved (DIR/summary.csv is the "
-                                   "batch summary); choose another name")
+                                   "batch summary); choose another name", argument=argument)
     return name
 
 
@@ -71,7 +106,7 @@ def _unique(names: list[str], where: list[str]) -> None:
         if key in seen:
             raise InvalidArgumentError(
                 f"{at}: the name {name!r} is already used ({seen[key]}); every pair needs its "
-                "own name (add a `name` column)"
+                "own name (add a `name` column)", argument="pairs"
             )
         seen[key] = at
 
@@ -90,7 +125,13 @@ def read_pairs(path) -> list[Pair]:
         Missing or unreadable file, wrong header, empty cell, bad or repeated name; the
         message starts with ``<path> line N:`` where it can.
     """
-    path = Path(path)
+    text_path = os.fspath(path) if isinstance(path, os.PathLike) else path
+    if not isinstance(text_path, str):
+        raise InvalidTypeError(f"`path` must be the path of PAIRS.csv (str or os.PathLike), "
+                               f"got {type(path).__name__} {_shown(path)}", argument="path")
+    if not text_path or "\0" in text_path:
+        raise PairsFileError(f"{text_path!r}: is not a file name", argument="path")
+    path = Path(text_path)
     label = str(path)
     try:  # a regular file of at most 1 GiB: a named pipe or a device is refused unopened
         text = read_input_bytes(path, MAX_FILE_BYTES).decode("utf-8-sig")
@@ -102,7 +143,14 @@ def read_pairs(path) -> list[Pair]:
     except UnicodeDecodeError as exc:
         raise PairsFileError(f"{label}: cannot read the file: {exc}") from None
     text = text.replace("\r\n", "\n").replace("\r", "\n")
-    rows = list(csv.reader(text.splitlines()))
+    reader = csv.reader(text.splitlines())
+    rows = []
+    try:
+        for row in reader:
+            rows.append(row)
+    except csv.Error as exc:  # a cell over the csv module's field limit (128 KiB)...
+        raise PairsFileError(f"{label} line {reader.line_num}: cannot be read as CSV "
+                             f"({exc}); is it a PAIRS.csv file?", argument="path") from None
     numbered = [(i + 1, [c.strip() for c in row]) for i, row in enumerate(rows)
                 if any(c.strip() for c in row)]
     if not numbered:
@@ -154,20 +202,47 @@ def as_pairs(pairs) -> list[Pair]:
     if isinstance(pairs, (str, bytes, os.PathLike)):
         raise InvalidTypeError(
             "`pairs` must be a sequence of (left, right[, name]) items; to read PAIRS.csv use "
-            "hopmatch_dask.read_pairs(path)"
+            "hopmatch_dask.read_pairs(path)", argument="pairs"
         )
+    if isinstance(pairs, (Pair, Mapping, np.ndarray)) or not isinstance(pairs, Iterable):
+        raise InvalidTypeError(
+            f"`pairs` must be a sequence of Pair or (left, right[, name]) items, got "
+            f"{type(pairs).__name__} {_shown(pairs)}", argument="pairs")
     out = []
     for i, item in enumerate(pairs):
+        where = f"`pairs[{i}]`"
         if isinstance(item, Pair):
-            out.append(item)
-            continue
-        if not isinstance(item, (tuple, list)) or len(item) not in (2, 3):
+            name, left, right = item.name, item.left, item.right
+        elif isinstance(item, (tuple, list)) and len(item) in (2, 3):
+            left, right = item[:2]
+            name = item[2] if len(item) == 3 else f"pair-{i:04d}"
+        else:
             raise InvalidTypeError(
-                f"`pairs[{i}]` must be a Pair or a (left, right[, name]) tuple, got "
-                f"{type(item).__name__}"
-            )
-        left, right = (os.fspath(v) if isinstance(v, os.PathLike) else v for v in item[:2])
-        name = item[2] if len(item) == 3 else f"pair-{i:04d}"
-        out.append(Pair(check_name(name, f"`pairs[{i}]`"), left, right))
+                f"{where} must be a Pair or a (left, right[, name]) tuple, got "
+                f"{type(item).__name__}" + (f" of {len(item)} items"
+                                            if isinstance(item, (tuple, list)) else ""),
+                argument="pairs")
+        check_name(name, where, argument="pairs")
+        left, right = _image_item(left, where, "left"), _image_item(right, where, "right")
+        if isinstance(item, Pair) and left is item.left and right is item.right:
+            out.append(item)
+        else:
+            out.append(Pair(name, left, right))
     _unique([p.name for p in out], [f"`pairs[{i}]`" for i in range(len(out))])
     return out
+
+
+def _image_item(value, where: str, side: str):
+    """An image of a pair: a path (str, or os.PathLike as str) or a numpy array."""
+    if isinstance(value, os.PathLike):
+        value = os.fspath(value)
+    if isinstance(value, np.ndarray):
+        return value
+    if not isinstance(value, str):
+        raise InvalidTypeError(f"{where}: the {side} image must be a path (str or "
+                               "os.PathLike) or a numpy array, got "
+                               f"{type(value).__name__} {_shown(value)}", argument="pairs")
+    if not value or "\0" in value:
+        raise InvalidArgumentError(f"{where}: the {side} image path {_shown(value)} is not a "
+                                   "file name", argument="pairs")
+    return value

@@ -7,18 +7,37 @@ import csv
 import io
 import math
 
-from hopmatch.errors import FileReadError
+from hopmatch.errors import FileReadError, InvalidTypeError
 from hopmatch.files import MAX_FILE_BYTES, read_input_bytes, write_text_atomic
 from hopmatch.tables import MATCH_COLUMNS, matches_table
 
-__all__ = ["COLUMNS", "SUMMARY_COLUMNS", "complete_rows", "finished_counts", "matches_table",
-           "summary_table", "write_text_atomic"]
+__all__ = ["COLUMNS", "MAX_MESSAGE_CHARS", "SUMMARY_COLUMNS", "complete_rows",
+           "finished_counts", "matches_table", "short_text", "summary_table",
+           "write_text_atomic"]
 
 #: Columns of ``<name>.csv``: those of ``hopmatch match``'s matches.csv
 #: (:func:`matches_table` is the writer both use).
 COLUMNS = MATCH_COLUMNS
-#: Columns of ``summary.csv``.
-SUMMARY_COLUMNS = ("name", "status", "matches", "seconds", "error")
+#: Columns of ``summary.csv``: ``error`` says why a ``failed`` pair failed, ``warning``
+#: what matching warned about for an ``ok`` pair (why it has no or few matches...).
+SUMMARY_COLUMNS = ("name", "status", "matches", "seconds", "error", "warning")
+#: Longest error or warning text recorded for a pair (longer ones are cut, ending in
+#: "..."): every field of summary.csv stays far below the 128 KiB the ``csv`` module reads.
+MAX_MESSAGE_CHARS = 2000
+
+
+def short_text(text, limit: int = MAX_MESSAGE_CHARS) -> str:
+    """``text`` on one line (runs of white space as one space), cut to ``limit`` characters.
+
+    Examples
+    --------
+    >>> short_text(" no  such   file ")
+    'no such file'
+    >>> short_text("x" * 10, limit=8)
+    'xxxxx...'
+    """
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 def complete_rows(path, expected: int | None = None) -> int | None:
@@ -30,7 +49,8 @@ def complete_rows(path, expected: int | None = None) -> int | None:
     it holds exactly ``expected`` rows (a file cut at a line boundary has fewer: the
     batch passes the count its summary recorded, :func:`finished_counts`). Files are
     renamed into place only when fully written, so an incomplete one was damaged
-    afterwards; it is computed again.
+    afterwards; it is computed again. ``expected`` must be None or an int
+    (:class:`~hopmatch.errors.InvalidTypeError` otherwise: ``"1"``, ``1.0`` or ``True``).
 
     Examples
     --------
@@ -45,6 +65,10 @@ def complete_rows(path, expected: int | None = None) -> int | None:
     >>> complete_rows(path) is None
     True
     """
+    if expected is not None and (isinstance(expected, bool) or not isinstance(expected, int)):
+        raise InvalidTypeError(f"`expected` must be None or an int (a row count), got "
+                               f"{type(expected).__name__} {expected!r}"[:200],
+                               argument="expected")
     try:
         text = read_input_bytes(path, MAX_FILE_BYTES).decode("utf-8")
     except (FileReadError, UnicodeDecodeError):
@@ -78,12 +102,15 @@ def finished_counts(path) -> dict[str, int]:
     except (FileReadError, UnicodeDecodeError):
         return {}
     counts = {}
-    for row in csv.DictReader(io.StringIO(text)):
-        try:
-            if row.get("status") in ("ok", "skipped") and row.get("name"):
-                counts[row["name"]] = int(row["matches"])
-        except (TypeError, ValueError):
-            continue
+    try:
+        for row in csv.DictReader(io.StringIO(text)):
+            try:
+                if row.get("status") in ("ok", "skipped") and row.get("name"):
+                    counts[row["name"]] = int(row["matches"])
+            except (TypeError, ValueError):
+                continue
+    except csv.Error:  # a field over the csv module's limit (128 KiB): not a summary we wrote
+        return {}
     return counts
 
 
@@ -94,5 +121,6 @@ def summary_table(outcomes) -> str:
     writer.writerow(SUMMARY_COLUMNS)
     for o in outcomes:
         writer.writerow([o.name, o.status, "" if o.matches is None else o.matches,
-                         "" if o.seconds is None else f"{o.seconds:.3f}", o.error])
+                         "" if o.seconds is None else f"{o.seconds:.3f}",
+                         short_text(o.error), short_text(getattr(o, "warning", ""))])
     return buf.getvalue()

@@ -6,21 +6,28 @@ this package installed, and must see the image paths (a shared file system).
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import multiprocessing
 import os
+import sys
+import threading
 import time
 import traceback
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 import hopmatch
-from hopmatch.errors import HopmatchError, InvalidArgumentError
+from hopmatch.errors import HopmatchError, HopmatchWarning, InvalidTypeError
 from hopmatch.imageio import DEFAULT_MAX_PIXELS, ImageReadError, read_image
 
-from .results import matches_table
+from .results import matches_table, short_text
 
-__all__ = ["ImageReadError", "PairResult", "batch_task", "match_pair", "read_image"]
+__all__ = ["ImageReadError", "PairResult", "batch_task", "give_warnings", "match_pair",
+           "read_image", "warnings_text"]
 
 
 @dataclass(eq=False)
@@ -37,6 +44,13 @@ class PairResult:
         Time spent reading and matching on the worker.
     worker : str
         Host and process id of the worker that matched it.
+    warnings : tuple of (category, message)
+        The warnings :func:`hopmatch.match_stereo` gave on the worker (a
+        :class:`~hopmatch.errors.FewMatchesWarning` says why a pair has no or few
+        matches). When the result is received in another process (``future.result()``,
+        ``client.gather``, a bag computed on a cluster), they are given there again with
+        ``warnings.warn`` (same category and message); :func:`give_warnings` gives them
+        on demand.
     """
 
     name: str
@@ -46,6 +60,14 @@ class PairResult:
     distances: np.ndarray
     seconds: float = 0.0
     worker: str = field(default="")
+    warnings: tuple = ()
+
+    def __setstate__(self, state) -> None:
+        """Unpickled in another process than the worker's (the client, after
+        ``future.result()`` or ``client.gather``): give the worker's warnings again."""
+        self.__dict__.update(state)
+        if self.warnings and self.worker != _worker_id():
+            give_warnings(self.warnings, stacklevel=3)
 
     def to_csv(self) -> str:
         """The table ``hopmatch match`` writes to matches.csv."""
@@ -58,8 +80,8 @@ def _image(value, side: str, max_pixels: int | None = DEFAULT_MAX_PIXELS) -> np.
         return value
     if isinstance(value, (str, os.PathLike)):
         return read_image(value, max_pixels=max_pixels)  # refused from the header if larger
-    raise InvalidArgumentError(f"`{side}` must be an image path or a numpy array, got "
-                               f"{type(value).__name__}")
+    raise InvalidTypeError(f"`{side}` must be an image path or a numpy array, got "
+                           f"{type(value).__name__}", argument=side)
 
 
 def _worker_id() -> str:
@@ -68,21 +90,123 @@ def _worker_id() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
+# -- warnings carried back to the client --------------------------------------------------
+#
+# In a worker process (a distributed worker, or a process of a multiprocessing pool),
+# ``warnings.showwarning`` is wrapped, once, by :func:`_show`: a warning given while
+# :func:`_collecting` is active in this context (the thread matching the pair, and the threads
+# hopmatch hands part of the work to with a copy of its context) is recorded for the
+# result instead of being shown there: the client gives it. Other warnings are shown as
+# before (the worker's log). hopmatch's warnings are shown "always"
+# there: Python's default shows a warning once per place, and two pairs of a worker with the
+# same problem must both carry it. In the client's own process (a bag computed by the
+# synchronous scheduler) nothing is changed: the warnings reach the caller directly.
+
+_sink: contextvars.ContextVar = contextvars.ContextVar("hopmatch_dask_warnings", default=None)
+_install_lock = threading.Lock()
+_ALWAYS = ("always", None, HopmatchWarning, None, 0)
+
+
+def _show(message, category, filename, lineno, file=None, line=None):
+    sink = _sink.get()
+    if sink is None:
+        _show.previous(message, category, filename, lineno, file, line)
+    else:  # the client gives it (a local cluster's workers would print it on its stderr)
+        sink.append((_portable(category), str(message)))
+
+
+_show.previous = warnings.showwarning
+
+
+def _portable(category) -> type:
+    """``category``, or UserWarning when it cannot be pickled by reference (a local class)."""
+    module = sys.modules.get(getattr(category, "__module__", ""), None)
+    found = module
+    for part in getattr(category, "__qualname__", "<>").split("."):
+        found = getattr(found, part, None)
+    return category if found is category else UserWarning
+
+
+def _in_worker_process() -> bool:
+    if multiprocessing.parent_process() is not None:
+        return True
+    try:
+        from distributed import get_worker
+
+        get_worker()
+    except (ImportError, ValueError):
+        return False
+    return True
+
+
+def _install() -> bool:
+    """Wrap ``warnings.showwarning`` with :func:`_show` (again, if another wrapper or
+    ``warnings.catch_warnings`` replaced it); False outside a worker process."""
+    if not _in_worker_process():
+        return False
+    with _install_lock:
+        if warnings.showwarning is not _show:
+            _show.previous = warnings.showwarning
+            warnings.showwarning = _show
+        if _ALWAYS not in warnings.filters:
+            warnings.simplefilter("always", HopmatchWarning)
+    return True
+
+
+@contextlib.contextmanager
+def _collecting():
+    """Within the block, the warnings given in this context are appended to the list it
+    yields (in a worker process; elsewhere the list stays empty)."""
+    caught: list = []
+    if not _install():
+        yield caught
+        return
+    token = _sink.set(caught)
+    try:
+        yield caught
+    finally:
+        _sink.reset(token)
+
+
+def give_warnings(caught, stacklevel: int = 2) -> None:
+    """Give again, with ``warnings.warn``, the ``(category, message)`` pairs of ``caught``
+    (:attr:`PairResult.warnings`, or a batch task's)."""
+    for category, message in caught:
+        warnings.warn(message, category, stacklevel=stacklevel)
+
+
+def warnings_text(caught) -> str:
+    """``caught`` as one line for summary.csv: ``"Category: message"`` joined by ``" | "``,
+    cut to :data:`~hopmatch_dask.results.MAX_MESSAGE_CHARS` characters.
+
+    Examples
+    --------
+    >>> from hopmatch.errors import FewMatchesWarning
+    >>> warnings_text([(FewMatchesWarning, "no matches:  flat")])
+    'FewMatchesWarning: no matches: flat'
+    """
+    return short_text(" | ".join(f"{getattr(c, '__name__', 'Warning')}: {m}"
+                                 for c, m in caught))
+
+
 def match_pair(pair, params: dict) -> PairResult:
-    """Match one :class:`~hopmatch_dask.Pair` (on a worker); errors propagate."""
+    """Match one :class:`~hopmatch_dask.Pair` (on a worker); errors propagate, warnings are
+    given and kept in :attr:`PairResult.warnings`."""
     t0 = time.perf_counter()
     max_pixels = params.get("max_pixels", DEFAULT_MAX_PIXELS)
-    left = _image(pair.left, "left", max_pixels)
-    right = _image(pair.right, "right", max_pixels)
-    res = hopmatch.match_stereo(left, right, **params)
+    with _collecting() as caught:
+        left = _image(pair.left, "left", max_pixels)
+        right = _image(pair.right, "right", max_pixels)
+        res = hopmatch.match_stereo(left, right, **params)
     return PairResult(pair.name, res.matched_left, res.matched_right, res.disparities,
-                      res.distances, time.perf_counter() - t0, _worker_id())
+                      res.distances, time.perf_counter() - t0, _worker_id(), tuple(caught))
 
 
 def batch_task(pair, params: dict) -> dict:
     """Match one pair of a batch; never raises for a bad pair.
 
-    Returns ``{"status": "ok", "csv": <table>, "matches": M, "seconds": s}`` or
+    Returns ``{"status": "ok", "csv": <table>, "matches": M, "seconds": s, "warnings":
+    [(category, message), ...]}`` or
     ``{"status": "failed", "error": <one line>, "seconds": s}``: a corrupt or missing image
     is a result of the batch, not a reason to retry or to stop it.
     """
@@ -99,4 +223,5 @@ def batch_task(pair, params: dict) -> dict:
                          f"({Path(where.filename).name}:{where.lineno})",
                 "seconds": time.perf_counter() - t0, "worker": _worker_id()}
     return {"status": "ok", "csv": res.to_csv(), "matches": int(len(res.disparities)),
-            "seconds": res.seconds, "worker": res.worker}
+            "seconds": res.seconds, "worker": res.worker,
+            "warnings": [(c, short_text(m)) for c, m in res.warnings]}
