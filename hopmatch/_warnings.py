@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
-import functools
 import os
 import sys
 import warnings
+from typing import NamedTuple
 
 _PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
 #: The list :func:`warn` appends to instead of warning, within :func:`deferred_warnings`.
@@ -35,12 +35,24 @@ def caller_stacklevel() -> int:
     return level
 
 
+class PendingWarning(NamedTuple):
+    """A warning kept for later by :func:`deferred_warnings`: its ``category`` and
+    ``message``; calling it gives it (:func:`warn`), with any keyword arguments ignored
+    (the lists the matching steps hand on are called with ``kept=`` or ``exposure=``)."""
+
+    category: type[Warning]
+    message: str
+
+    def __call__(self, **_) -> None:
+        warn(self.message, self.category)
+
+
 def warn(message: str, category: type[Warning]) -> None:
     """``warnings.warn(message, category)`` attributed to the user's line of code; within
     :func:`deferred_warnings`, kept for later instead."""
     pending = _deferred.get()
     if pending is not None:
-        pending.append(lambda: warn(message, category))
+        pending.append(PendingWarning(category, message))
         return
     warnings.warn(message, category, stacklevel=caller_stacklevel())
 
@@ -48,9 +60,10 @@ def warn(message: str, category: type[Warning]) -> None:
 @contextlib.contextmanager
 def deferred_warnings():
     """Within the block (this context, and the worker threads that copy it), :func:`warn`
-    appends each warning, as a callable of no argument that gives it, to the list the
-    block yields instead of giving it: for a caller that runs two matches and gives the
-    warnings of the one it keeps (:mod:`hopmatch.matching.channels`)."""
+    appends each warning, as a :class:`PendingWarning` (calling it gives it), to the list
+    the block yields instead of giving it: for a caller that runs two matches and gives
+    the warnings of the one it keeps (:mod:`hopmatch.matching.channels`), and for
+    :func:`hopmatch.errors.collect_warnings`."""
     pending: list = []
     token = _deferred.set(pending)
     try:
@@ -72,11 +85,7 @@ def deferring(later: list | None):
         return
     with deferred_warnings() as pending:
         yield
-    later.extend(functools.partial(_give, give) for give in pending)
-
-
-def _give(give, **_) -> None:
-    give()
+    later.extend(pending)
 
 
 def give_or_defer(pending: list, warnings_later: list | None) -> None:

@@ -10,9 +10,13 @@ maps it to its option).
 
 from __future__ import annotations
 
+import contextlib
 import os
 
+from ._warnings import deferred_warnings
+
 __all__ = [
+    "collect_warnings",
     "HopmatchError",
     "InvalidArgumentError",
     "InvalidTypeError",
@@ -26,6 +30,8 @@ __all__ = [
     "DisparityRangeWarning",
     "UnrectifiedPairWarning",
     "FewMatchesWarning",
+    "NotStereoPairWarning",
+    "GeometryWarning",
 ]
 
 
@@ -165,3 +171,28 @@ class GeometryWarning(HopmatchWarning):
     rectified=False)``, ``HopfieldMatcher.estimateFundamentalMatrix``): too few
     correspondences, or too few of them agree on one fundamental matrix. The result is
     empty (no matches) rather than built on a wrong F."""
+
+
+@contextlib.contextmanager
+def collect_warnings():
+    """Keep the warnings hopmatch gives within the block instead of giving them.
+
+    Yields a list to which each :class:`HopmatchWarning` that hopmatch gives in this
+    context (this thread, and the threads hopmatch hands part of its work to) is appended
+    as a ``(category, message)`` named tuple, not shown and not subject to the warning
+    filters; other warnings are given as usual. Calling an item gives it then (attributed
+    to the caller's line). For code that matches on behalf of someone else and hands the
+    warnings on with the result: a worker process of a cluster (the Dask plugin), a
+    server. A block that raises hands its warnings to no one.
+
+    Examples
+    --------
+    >>> import numpy as np, hopmatch
+    >>> flat = np.zeros((64, 64), np.uint8)
+    >>> with collect_warnings() as caught:
+    ...     result = hopmatch.match_stereo(flat, flat)
+    >>> [(category.__name__, len(result.disparities)) for category, message in caught]
+    [('FewMatchesWarning', 0)]
+    """
+    with deferred_warnings() as pending:
+        yield pending

@@ -49,7 +49,8 @@ from .._interrupts import keeps_interrupts
 from ..errors import HopmatchError
 
 # importing the commands registers them on the group; the names below are the public names
-# of hopmatch.cli (the plugins import parameter_options and given_parameters from here)
+# of hopmatch.cli (the plugins import parameter_options, given_parameters and strip_name
+# from here)
 from .commands import demo, detect, match  # noqa: F401
 from .eval_command import eval_  # noqa: F401
 from .group import PluginGroup, cli  # noqa: F401
@@ -63,6 +64,7 @@ from .reporting import (  # noqa: F401
     explain,
     one_line,
     status,
+    strip_name,
 )
 
 __all__ = ["cli", "main"]

@@ -209,9 +209,19 @@ def cli_warnings(labels: dict, debug: bool = False):
 
 
 def strip_name(message: str, name: str) -> str:
-    """"`window_size` must be odd" -> "must be odd"."""
-    prefix = f"`{name}` "
-    return message[len(prefix):] if message.startswith(prefix) else message
+    """``message`` without its leading "`name` " or "`name`: ".
+
+    Examples
+    --------
+    >>> strip_name("`window_size` must be odd", "window_size")
+    'must be odd'
+    >>> strip_name("`out`: a file stands there", "out")
+    'a file stands there'
+    """
+    for prefix in (f"`{name}`: ", f"`{name}` "):
+        if message.startswith(prefix):
+            return message[len(prefix):]
+    return message
 
 
 def _bare(name: str) -> str:

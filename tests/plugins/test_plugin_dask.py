@@ -25,15 +25,7 @@ from hopmatch_dask.results import COLUMNS, matches_table  # noqa: E402
 
 PARAMS = {"max_disparity": 16}
 TIMEOUT = 60
-
-
-@pytest.fixture(scope="module")
-def client():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None,
-                                  processes=True, host="127.0.0.1") as cluster, \
-            distributed.Client(cluster, timeout=TIMEOUT) as c:
-        c.wait_for_workers(2, timeout=TIMEOUT)
-        yield c
+DASK_WORKERS = 2  # the `client` fixture's cluster (tests/plugins/conftest.py)
 
 
 def _pair_images(i: int, shape=(200, 260)):

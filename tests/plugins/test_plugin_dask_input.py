@@ -71,15 +71,6 @@ def no_cluster(monkeypatch):
     monkeypatch.setattr(distributed, "Client", refuse)
 
 
-@pytest.fixture(scope="module")
-def client():
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None,
-                                  processes=True, host="127.0.0.1") as cluster, \
-            distributed.Client(cluster, timeout=TIMEOUT) as c:
-        c.wait_for_workers(1, timeout=TIMEOUT)
-        yield c
-
-
 @pytest.fixture
 def hopmatch_main(monkeypatch):
     from hopmatch import cli as hcli

@@ -24,7 +24,7 @@ from pathlib import Path
 import click
 
 import hopmatch
-from hopmatch.cli import given_parameters, parameter_options
+from hopmatch.cli import given_parameters, one_line, parameter_options, strip_name
 from hopmatch.errors import HopmatchError, HopmatchWarning
 
 from .batch import check_params, check_scheduler, run_batch
@@ -61,15 +61,6 @@ class _Progress:
         if self.bar is not None:
             self.bar.__exit__(None, None, None)
             self.bar = None
-
-
-def _strip(exc: HopmatchError, name: str) -> str:
-    """The message of ``exc`` on one line, without its leading "`name` " or "`name`: "."""
-    message = " ".join(str(exc).split())
-    for prefix in (f"`{name}`: ", f"`{name}` "):
-        if message.startswith(prefix):
-            return message[len(prefix):]
-    return message
 
 
 def _stderr_is_terminal() -> bool:
@@ -123,7 +114,7 @@ def batch(ctx, pairs_csv, out, scheduler, workers, unrectified, **params):
         try:
             check_scheduler(scheduler)
         except HopmatchError as exc:
-            raise click.BadParameter(_strip(exc, "scheduler"),
+            raise click.BadParameter(strip_name(one_line(exc), "scheduler"),
                                      param_hint="--scheduler") from None
     try:
         check_params(given, "hopmatch batch")
@@ -147,11 +138,12 @@ def batch(ctx, pairs_csv, out, scheduler, workers, unrectified, **params):
     try:
         check_workers(workers)
     except HopmatchError as exc:
-        raise click.BadParameter(_strip(exc, "workers"), param_hint="--workers") from None
+        raise click.BadParameter(strip_name(one_line(exc), "workers"),
+                                 param_hint="--workers") from None
     try:
         check_out(out)
     except HopmatchError as exc:
-        raise click.BadParameter(_strip(exc, "out"), param_hint="--out") from None
+        raise click.BadParameter(strip_name(one_line(exc), "out"), param_hint="--out") from None
 
     bar = _Progress(len(pairs), enabled=not quiet and _stderr_is_terminal())
     try:
@@ -161,7 +153,7 @@ def batch(ctx, pairs_csv, out, scheduler, workers, unrectified, **params):
                                **given)
     except HopmatchError as exc:
         if exc.argument in ("scheduler", "out"):  # unreachable scheduler, folder refused
-            raise click.BadParameter(_strip(exc, exc.argument),
+            raise click.BadParameter(strip_name(one_line(exc), exc.argument),
                                      param_hint="--" + exc.argument) from None
         raise
     finally:

@@ -6,12 +6,8 @@ this package installed, and must see the image paths (a shared file system).
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import multiprocessing
 import os
-import sys
-import threading
 import time
 import traceback
 import warnings
@@ -21,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 import hopmatch
-from hopmatch.errors import HopmatchError, HopmatchWarning, InvalidTypeError
+from hopmatch.errors import HopmatchError, InvalidTypeError, collect_warnings
 from hopmatch.imageio import DEFAULT_MAX_PIXELS, ImageReadError, read_image
 
 from .results import matches_table, short_text
@@ -45,12 +41,13 @@ class PairResult:
     worker : str
         Host and process id of the worker that matched it.
     warnings : tuple of (category, message)
-        The warnings :func:`hopmatch.match_stereo` gave on the worker (a
+        The warnings :func:`hopmatch.match_stereo` gave for the pair (a
         :class:`~hopmatch.errors.FewMatchesWarning` says why a pair has no or few
-        matches). When the result is received in another process (``future.result()``,
-        ``client.gather``, a bag computed on a cluster), they are given there again with
-        ``warnings.warn`` (same category and message); :func:`give_warnings` gives them
-        on demand.
+        matches). On a worker they are kept, not shown; when the result is received in
+        another process (``future.result()``, ``client.gather``, a bag computed on a
+        cluster), they are given there with ``warnings.warn`` (same category and
+        message). Matched in the caller's own process, they were given at once.
+        :func:`give_warnings` gives them on demand.
     """
 
     name: str
@@ -92,39 +89,12 @@ def _worker_id() -> str:
 
 # -- warnings carried back to the client --------------------------------------------------
 #
-# In a worker process (a distributed worker, or a process of a multiprocessing pool),
-# ``warnings.showwarning`` is wrapped, once, by :func:`_show`: a warning given while
-# :func:`_collecting` is active in this context (the thread matching the pair, and the threads
-# hopmatch hands part of the work to with a copy of its context) is recorded for the
-# result instead of being shown there: the client gives it. Other warnings are shown as
-# before (the worker's log). hopmatch's warnings are shown "always"
-# there: Python's default shows a warning once per place, and two pairs of a worker with the
-# same problem must both carry it. In the client's own process (a bag computed by the
-# synchronous scheduler) nothing is changed: the warnings reach the caller directly.
-
-_sink: contextvars.ContextVar = contextvars.ContextVar("hopmatch_dask_warnings", default=None)
-_install_lock = threading.Lock()
-_ALWAYS = ("always", None, HopmatchWarning, None, 0)
-
-
-def _show(message, category, filename, lineno, file=None, line=None):
-    sink = _sink.get()
-    if sink is None:
-        _show.previous(message, category, filename, lineno, file, line)
-    else:  # the client gives it (a local cluster's workers would print it on its stderr)
-        sink.append((_portable(category), str(message)))
-
-
-_show.previous = warnings.showwarning
-
-
-def _portable(category) -> type:
-    """``category``, or UserWarning when it cannot be pickled by reference (a local class)."""
-    module = sys.modules.get(getattr(category, "__module__", ""), None)
-    found = module
-    for part in getattr(category, "__qualname__", "<>").split("."):
-        found = getattr(found, part, None)
-    return category if found is category else UserWarning
+# In a worker process (a distributed worker, or a process of a multiprocessing pool), the
+# warnings hopmatch gives while matching a pair are collected
+# (:func:`hopmatch.errors.collect_warnings`: not shown there, whatever the worker's filters)
+# and travel with the result: the client gives them. In the client's own process (a bag
+# computed by the synchronous scheduler) they are given at once, as usual, and kept in the
+# result as well.
 
 
 def _in_worker_process() -> bool:
@@ -137,35 +107,6 @@ def _in_worker_process() -> bool:
     except (ImportError, ValueError):
         return False
     return True
-
-
-def _install() -> bool:
-    """Wrap ``warnings.showwarning`` with :func:`_show` (again, if another wrapper or
-    ``warnings.catch_warnings`` replaced it); False outside a worker process."""
-    if not _in_worker_process():
-        return False
-    with _install_lock:
-        if warnings.showwarning is not _show:
-            _show.previous = warnings.showwarning
-            warnings.showwarning = _show
-        if _ALWAYS not in warnings.filters:
-            warnings.simplefilter("always", HopmatchWarning)
-    return True
-
-
-@contextlib.contextmanager
-def _collecting():
-    """Within the block, the warnings given in this context are appended to the list it
-    yields (in a worker process; elsewhere the list stays empty)."""
-    caught: list = []
-    if not _install():
-        yield caught
-        return
-    token = _sink.set(caught)
-    try:
-        yield caught
-    finally:
-        _sink.reset(token)
 
 
 def give_warnings(caught, stacklevel: int = 2) -> None:
@@ -194,12 +135,16 @@ def match_pair(pair, params: dict) -> PairResult:
     given and kept in :attr:`PairResult.warnings`."""
     t0 = time.perf_counter()
     max_pixels = params.get("max_pixels", DEFAULT_MAX_PIXELS)
-    with _collecting() as caught:
+    with collect_warnings() as caught:
         left = _image(pair.left, "left", max_pixels)
         right = _image(pair.right, "right", max_pixels)
         res = hopmatch.match_stereo(left, right, **params)
+    if not _in_worker_process():  # the caller's own process: given here, as usual
+        for give in caught:
+            give()
     return PairResult(pair.name, res.matched_left, res.matched_right, res.disparities,
-                      res.distances, time.perf_counter() - t0, _worker_id(), tuple(caught))
+                      res.distances, time.perf_counter() - t0, _worker_id(),
+                      tuple((category, message) for category, message in caught))
 
 
 def batch_task(pair, params: dict) -> dict:
