@@ -15,7 +15,6 @@ import re
 import sys
 import tempfile
 import threading
-import warnings
 
 import cv2
 import numpy as np
@@ -111,9 +110,10 @@ def header_size(data: bytes) -> tuple[int, int] | None:
         try:
             if accept is not None and accept(prefix) is not True:
                 continue
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                im = factory(io.BytesIO(data), "")  # the plugin itself: no bomb check
+            # the plugin itself: no bomb check. Its warnings (a TIFF's odd metadata) are
+            # let through: silencing them (warnings.catch_warnings) would change the
+            # process-wide filters and drop other threads' warnings meanwhile
+            im = factory(io.BytesIO(data), "")
             width, height = im.size
         except Exception:  # not this format after all, or a broken header
             continue

@@ -276,3 +276,22 @@ class TestLimits:
         assert header_size(cv2.imencode(".jpg", np.zeros((7, 9), np.uint8))[1].tobytes()) == (9, 7)
         assert header_size(cv2.imencode(".tiff", np.zeros((7, 9), np.uint8))[1].tobytes()) == (9, 7)
         assert header_size(b"garbage") is None
+
+    def test_header_size_leaves_the_warning_filters_alone(self, files, monkeypatch):
+        """The process-wide filters are not thread-local: a header read that changed them
+        (``warnings.catch_warnings``) would drop another thread's warnings meanwhile."""
+        import warnings
+
+        from hopmatch.imageio import header_size
+
+        def refuse(*args, **kwargs):
+            raise AssertionError("header_size changed the process-wide warning filters")
+
+        monkeypatch.setattr(warnings, "catch_warnings", refuse)
+        monkeypatch.setattr(warnings, "simplefilter", refuse)
+        monkeypatch.setattr(warnings, "filterwarnings", refuse)
+        paths, _ = files
+        assert header_size(paths["grey"].read_bytes()) == (30, 20)
+        for ext in (".jpg", ".tiff", ".bmp", ".webp"):
+            data = cv2.imencode(ext, np.zeros((7, 9), np.uint8))[1].tobytes()
+            assert header_size(data) == (9, 7), ext
