@@ -2,7 +2,7 @@
 
 Run: ``python benchmarks/passes.py [--scenes NAME ...] [--perturb NAME ...] [--params JSON]
 [--guided JSON] [--halves JSON] [--baselines] [--ranking] [--grid] [--refine-radius N]
-[--timing N] [--smoke]``
+[--both-features] [--timing N] [--smoke]``
 
 For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
 scene there) it prints: matches, correct@1px and precision@1px
@@ -62,6 +62,14 @@ left-camera view of the mirrored world), applied first.
 size rule (``hopmatch.matching.stereo_match.refine_radius``; docs/parameters.md,
 "Refinement window and image size").
 
+``--both-features`` runs ``match_stereo`` twice per pair, on the gradient (the detector's
+``on``, as given) and on the other feature image (grey levels for the gradient), and adds
+to the first run's matches those of the second whose left point lies more than
+:data:`BOTH_SEPARATION` px from every left point the first matched (its passes printed as
+10 and 11); with ``--baselines`` SGBM is then sampled at the left points of both runs (the
+second's kept by the same rule). What a second set of points would bring (docs/parameters.md,
+"Points on both feature images"); timings are of both runs.
+
 ``--timing N`` adds, per scene (unperturbed), what ``--guided`` costs: ``match_stereo``
 run N times with the module's own constants and N times with ``--guided``'s, interleaved
 in one process, timed by ``time.thread_time`` (one thread: a loaded machine's other
@@ -96,9 +104,54 @@ from _common import (  # noqa: E402
 import hopmatch  # noqa: E402
 from hopmatch import datasets  # noqa: E402
 from hopmatch.compare import METHODS  # noqa: E402
+from hopmatch.compare.methods import sgbm_uniqueness  # noqa: E402
 from hopmatch.evaluate import score_matches  # noqa: E402
 from hopmatch.feature import blocking  # noqa: E402
 from hopmatch.matching import guided, halves, plane_pass, planes  # noqa: E402
+
+#: ``--both-features``: a match of the second run is added when its left point lies farther
+#: than this (px) from every left point the first run matched.
+BOTH_SEPARATION = 1.5
+
+
+@dataclasses.dataclass
+class BothFeatures:
+    """``--both-features``' matches: the first run's, then the second's that were added
+    (their ``passes`` plus 10); ``points_left`` the first run's left points and the
+    second's farther than :data:`BOTH_SEPARATION` px from every one of them."""
+
+    matched_left: np.ndarray
+    matched_right: np.ndarray
+    distances: np.ndarray
+    passes: np.ndarray
+    points_left: np.ndarray
+
+
+def far_from(points: np.ndarray, others: np.ndarray, separation: float) -> np.ndarray:
+    """(N,) bool: which of ``points`` lie farther than ``separation`` from every one of
+    ``others`` (both (x, y) rows)."""
+    if not len(points) or not len(others):
+        return np.ones(len(points), dtype=bool)
+    from scipy.spatial import cKDTree
+
+    nearest, _ = cKDTree(others).query(points, k=1)
+    return nearest > separation
+
+
+def both_features(left, right, params: dict) -> BothFeatures:
+    """``match_stereo`` on the detector's feature image and on the other one, merged
+    (``--both-features``)."""
+    first = hopmatch.match_stereo(left, right, **params)
+    other = "gradient" if params.get("on") == "intensity" else "intensity"
+    second = hopmatch.match_stereo(left, right, **{**params, "on": other})
+    added = far_from(second.matched_left, first.matched_left, BOTH_SEPARATION)
+    points = far_from(second.points_left, first.points_left, BOTH_SEPARATION)
+    return BothFeatures(
+        np.concatenate([first.matched_left, second.matched_left[added]]),
+        np.concatenate([first.matched_right, second.matched_right[added]]),
+        np.concatenate([first.distances, second.distances[added]]),
+        np.concatenate([first.passes, second.passes[added] + 10]),
+        np.concatenate([first.points_left, second.points_left[points]]))
 
 
 def bilinear_gt(points: np.ndarray, disparity: np.ndarray) -> np.ndarray:
@@ -344,6 +397,8 @@ def main(argv=None) -> int:
     ap.add_argument("--grid", action="store_true",
                     help="also the wrong matches at a disparity within 0.5 px of a nonzero "
                          "multiple of 8 px (JPEG's block grid)")
+    ap.add_argument("--both-features", action="store_true",
+                    help="also match on the other feature image and add those matches")
     ap.add_argument("--timing", type=int, default=0,
                     help="also time --guided against the module's constants (N runs each)")
     args = add_smoke_option(add_refine_radius_option(ap)).parse_args(argv)
@@ -367,6 +422,7 @@ def main(argv=None) -> int:
         print_timing(names, params, own, json.loads(args.guided), args.timing)
     for spec in args.perturb:
         print(f"## perturbation: {spec or 'none'}; params {params or 'defaults'}"
+              + ("; both feature images" if args.both_features else "")
               + (f"; guided {args.guided}" if args.guided != "{}" else "")
               + (f"; halves {args.halves}" if args.halves != "{}" else ""))
         print("scene | matches | correct | precision | med err | by pass (n/correct/prec/med)"
@@ -389,7 +445,8 @@ def main(argv=None) -> int:
                 warnings.simplefilter("ignore", hopmatch.errors.HopmatchWarning)
                 hopmatch.match_stereo(left[:64, :64], right[:64, :64], **params)
             t0 = time.perf_counter()
-            res = hopmatch.match_stereo(left, right, **params)
+            res = (both_features(left, right, params) if args.both_features
+                   else hopmatch.match_stereo(left, right, **params))
             secs = time.perf_counter() - t0
             left_pts, right_pts = unmap(res.matched_left, m_left), unmap(res.matched_right, m)
             k, c, p, med = score(left_pts, right_pts, scene.disparity)
@@ -412,7 +469,9 @@ def main(argv=None) -> int:
                 pair = dataclasses.replace(scene, left=left, right=right)
                 cs, cg = (score_matches(unmap(b.left_pts, m_left), unmap(b.right_pts, m),
                                         scene.disparity).correct[1.0]
-                          for b in (METHODS["sift-ratio"](pair), METHODS["sgbm"](pair)))
+                          for b in (METHODS["sift-ratio"](pair),
+                                    sgbm_uniqueness(pair, 10, res.points_left)
+                                    if args.both_features else METHODS["sgbm"](pair)))
                 tot["sift"] += cs
                 tot["sgbm"] += cg
                 row += f" | {cs}{'' if c >= cs else ' (miss)'} | {cg}"

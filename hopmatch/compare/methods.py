@@ -276,8 +276,15 @@ def _ncc_wta(left: np.ndarray, right: np.ndarray, pts_int: np.ndarray, max_dispa
 def _moravec_left(gray: np.ndarray, half: int):
     """hopmatch's default detector on the left image; integer positions inside a margin."""
     pts, _, _ = DericheMoravecDetector().detect_points(gray)
-    h, w = gray.shape
-    pi = np.rint(pts).astype(np.intp).reshape(-1, 2)
+    return _inside(pts, gray.shape, half)
+
+
+def _inside(points: np.ndarray, shape: tuple, half: int = 0):
+    """``(points, their pixels)`` of the (x, y) ``points`` whose nearest pixel lies at
+    least ``half`` px inside an image of ``shape``."""
+    pts = np.asarray(points, dtype=np.float32).reshape(-1, 2)
+    h, w = shape[:2]
+    pi = np.rint(pts).astype(np.intp)
     inside = (pi[:, 0] >= half) & (pi[:, 0] < w - half) & (pi[:, 1] >= half) & (pi[:, 1] < h - half)
     return pts[inside], pi[inside]
 
@@ -303,10 +310,13 @@ def sgbm(scene: StereoScene) -> MethodResult:
     return sgbm_uniqueness(scene, 10)
 
 
-def sgbm_uniqueness(scene: StereoScene, uniqueness: int) -> MethodResult:
+def sgbm_uniqueness(scene: StereoScene, uniqueness: int,
+                    left_points: np.ndarray | None = None) -> MethodResult:
     """:func:`sgbm` with ``uniquenessRatio=uniqueness`` (percent by which the best cost must
     beat the second; 0 keeps every pixel the other filters keep): the parameter
-    :func:`~hopmatch.compare.curves.precision_curves` sweeps."""
+    :func:`~hopmatch.compare.curves.precision_curves` sweeps. ``left_points``: (N, 2) (x,
+    y) to sample at instead of hopmatch's Moravec points (rounded to pixels; those outside
+    the image dropped)."""
     gl, gr = _gray_pair(scene)
     dmax = disparity_range(scene)
     block = 5
@@ -317,7 +327,7 @@ def sgbm_uniqueness(scene: StereoScene, uniqueness: int) -> MethodResult:
                                disp12MaxDiff=1, uniquenessRatio=int(uniqueness),
                                speckleWindowSize=100, speckleRange=2)
     raw = sg.compute(gl, gr)
-    pts, pi = _moravec_left(gl, 0)
+    pts, pi = _moravec_left(gl, 0) if left_points is None else _inside(left_points, gl.shape)
     d = raw[pi[:, 1], pi[:, 0]].astype(np.float32) / 16.0
     keep = (d >= 0) & (d <= dmax)
     seconds = time.perf_counter() - t0

@@ -550,6 +550,28 @@ def test_passes_grey_changes_and_grid_smoke():
         assert proc.returncode != 0 and bad in proc.stderr, proc.stderr
 
 
+def test_passes_both_features_adds_the_second_runs_far_matches():
+    """docs/parameters.md ("Points on both feature images") quotes ``--both-features``:
+    the second run's matches (passes 10 and 11) are added only where the first matched no
+    left point within BOTH_SEPARATION px, and SGBM is sampled at both runs' points."""
+    sys.path.insert(0, str(BENCHMARKS))
+    try:
+        from passes import BOTH_SEPARATION, far_from
+    finally:
+        sys.path.remove(str(BENCHMARKS))
+    first = np.array([[10.0, 10.0], [50.0, 20.0]])
+    second = np.array([[10.0 + BOTH_SEPARATION, 10.0], [11.0, 11.0], [30.0, 30.0]])
+    assert far_from(second, first, BOTH_SEPARATION).tolist() == [False, False, True]
+    assert far_from(second, first[:0], BOTH_SEPARATION).tolist() == [True, True, True]
+    out = run_script("passes.py", "--both-features", "--baselines")
+    assert_lines(
+        out,
+        r"## perturbation: none; params defaults; both feature images",
+        r"motorcycle \| \d+ \| \d+ \| [\d.]+ \| .*\b1[01]: \d+/.* \| \d+ \| \d+ \| \d+",
+        r"pooled: \d+ matches, \d+ correct, precision [\d.]+, .*SGBM \d+ \([\d.]+x\)",
+    )
+
+
 def test_passes_crop_cuts_the_right_view_only():
     """``crop0.1`` cuts the right-most tenth of the right view's columns (a right view of
     another width, docs/robustness.md), ``top6`` its top 6 rows (the right points then

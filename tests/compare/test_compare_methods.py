@@ -70,3 +70,20 @@ def test_dmatches_become_point_pairs():
     assert all(a.shape == (0, 2) and a.dtype == np.float32 for a in empty)
     with pytest.raises(ValueError, match="do not exist"):
         methods._from_dmatches(kl, kr, [cv2.DMatch(0, 2, 0.0)])
+
+
+def test_sgbm_samples_at_the_points_given():
+    """``sgbm_uniqueness(..., left_points)``: the disparity map read at those points (rounded
+    to pixels; points outside the image dropped), the same reading as at hopmatch's own."""
+    scene = synthetic_scene()
+    own = methods.sgbm_uniqueness(scene, 10)
+    h, w = scene.left.shape[:2]
+    extra = np.array([[-3.0, 5.0], [w + 2.0, 5.0]], np.float32)  # outside: dropped
+    given = methods.sgbm_uniqueness(scene, 10, np.vstack([own.keypoints_left, extra]))
+    np.testing.assert_array_equal(given.keypoints_left, own.keypoints_left)
+    np.testing.assert_array_equal(given.left_pts, own.left_pts)
+    np.testing.assert_array_equal(given.right_pts, own.right_pts)
+    some = own.keypoints_left[::3]
+    fewer = methods.sgbm_uniqueness(scene, 10, some)
+    assert len(fewer.keypoints_left) == len(some)
+    assert set(map(tuple, fewer.left_pts.tolist())) <= set(map(tuple, some.tolist()))
