@@ -62,13 +62,17 @@ left-camera view of the mirrored world), applied first.
 size rule (``hopmatch.matching.stereo_match.refine_radius``; docs/parameters.md,
 "Refinement window and image size").
 
-``--both-features`` runs ``match_stereo`` twice per pair, on the gradient (the detector's
-``on``, as given) and on the other feature image (grey levels for the gradient), and adds
-to the first run's matches those of the second whose left point lies more than
-:data:`BOTH_SEPARATION` px from every left point the first matched (its passes printed as
-10 and 11); with ``--baselines`` SGBM is then sampled at the left points of both runs (the
-second's kept by the same rule). What a second set of points would bring (docs/parameters.md,
-"Points on both feature images"); timings are of both runs.
+``--both-features [supported|added]`` runs ``match_stereo`` twice per pair, on the
+gradient (the detector's ``on``, as given) and on the other feature image (grey levels for
+the gradient), and adds to the first run's matches those of the second whose left point
+lies more than :data:`BOTH_SEPARATION` px from every left point the first matched (its
+passes printed as 10 and 11); ``supported`` (the default) adds only those that the first
+run's matches support: at least :data:`BOTH_MIN_SUPPORT` of them within
+:data:`BOTH_SUPPORT_RADIUS` px of the left point, their median disparity within
+:data:`BOTH_TOLERANCE` px of the match's. With ``--baselines`` SGBM is then sampled at the
+left points of both runs (the second's farther than :data:`BOTH_SEPARATION` px from the
+first's). What a second set of points would bring (docs/parameters.md, "Points on both
+feature images"); timings are of both runs.
 
 ``--timing N`` adds, per scene (unperturbed), what ``--guided`` costs: ``match_stereo``
 run N times with the module's own constants and N times with ``--guided``'s, interleaved
@@ -112,6 +116,12 @@ from hopmatch.matching import guided, halves, plane_pass, planes  # noqa: E402
 #: ``--both-features``: a match of the second run is added when its left point lies farther
 #: than this (px) from every left point the first run matched.
 BOTH_SEPARATION = 1.5
+#: ``--both-features supported``: a match of the second run is added when at least
+#: ``BOTH_MIN_SUPPORT`` matches of the first lie within ``BOTH_SUPPORT_RADIUS`` px of its left
+#: point and their median disparity is within ``BOTH_TOLERANCE`` px of its own.
+BOTH_SUPPORT_RADIUS = 12.0
+BOTH_MIN_SUPPORT = 3
+BOTH_TOLERANCE = 1.0
 
 
 @dataclasses.dataclass
@@ -138,13 +148,33 @@ def far_from(points: np.ndarray, others: np.ndarray, separation: float) -> np.nd
     return nearest > separation
 
 
-def both_features(left, right, params: dict) -> BothFeatures:
+def supported(points: np.ndarray, disparities: np.ndarray, others: np.ndarray,
+              other_disparities: np.ndarray) -> np.ndarray:
+    """(N,) bool: which ``points`` (x, y) have at least :data:`BOTH_MIN_SUPPORT` of
+    ``others`` within :data:`BOTH_SUPPORT_RADIUS` px whose median disparity lies within
+    :data:`BOTH_TOLERANCE` px of their own disparity."""
+    out = np.zeros(len(points), dtype=bool)
+    if not len(points) or not len(others):
+        return out
+    from scipy.spatial import cKDTree
+
+    near = cKDTree(others).query_ball_point(points, BOTH_SUPPORT_RADIUS)
+    for k, idx in enumerate(near):
+        out[k] = (len(idx) >= BOTH_MIN_SUPPORT and abs(
+            np.median(other_disparities[idx]) - disparities[k]) <= BOTH_TOLERANCE)
+    return out
+
+
+def both_features(left, right, params: dict, mode: str = "supported") -> BothFeatures:
     """``match_stereo`` on the detector's feature image and on the other one, merged
-    (``--both-features``)."""
+    (``--both-features MODE``)."""
     first = hopmatch.match_stereo(left, right, **params)
     other = "gradient" if params.get("on") == "intensity" else "intensity"
     second = hopmatch.match_stereo(left, right, **{**params, "on": other})
     added = far_from(second.matched_left, first.matched_left, BOTH_SEPARATION)
+    if mode == "supported":
+        added &= supported(second.matched_left, second.disparities, first.matched_left,
+                           first.disparities)
     points = far_from(second.points_left, first.points_left, BOTH_SEPARATION)
     return BothFeatures(
         np.concatenate([first.matched_left, second.matched_left[added]]),
@@ -397,8 +427,10 @@ def main(argv=None) -> int:
     ap.add_argument("--grid", action="store_true",
                     help="also the wrong matches at a disparity within 0.5 px of a nonzero "
                          "multiple of 8 px (JPEG's block grid)")
-    ap.add_argument("--both-features", action="store_true",
-                    help="also match on the other feature image and add those matches")
+    ap.add_argument("--both-features", nargs="?", const="supported", default=None,
+                    choices=("supported", "added"),
+                    help="also match on the other feature image and add those matches "
+                         "(supported: only where the first run's matches agree)")
     ap.add_argument("--timing", type=int, default=0,
                     help="also time --guided against the module's constants (N runs each)")
     args = add_smoke_option(add_refine_radius_option(ap)).parse_args(argv)
@@ -422,7 +454,8 @@ def main(argv=None) -> int:
         print_timing(names, params, own, json.loads(args.guided), args.timing)
     for spec in args.perturb:
         print(f"## perturbation: {spec or 'none'}; params {params or 'defaults'}"
-              + ("; both feature images" if args.both_features else "")
+              + (f"; both feature images ({args.both_features})" if args.both_features
+                 else "")
               + (f"; guided {args.guided}" if args.guided != "{}" else "")
               + (f"; halves {args.halves}" if args.halves != "{}" else ""))
         print("scene | matches | correct | precision | med err | by pass (n/correct/prec/med)"
@@ -445,7 +478,8 @@ def main(argv=None) -> int:
                 warnings.simplefilter("ignore", hopmatch.errors.HopmatchWarning)
                 hopmatch.match_stereo(left[:64, :64], right[:64, :64], **params)
             t0 = time.perf_counter()
-            res = (both_features(left, right, params) if args.both_features
+            res = (both_features(left, right, params, args.both_features)
+                   if args.both_features
                    else hopmatch.match_stereo(left, right, **params))
             secs = time.perf_counter() - t0
             left_pts, right_pts = unmap(res.matched_left, m_left), unmap(res.matched_right, m)
