@@ -2,7 +2,7 @@
 
 Run: ``python benchmarks/passes.py [--scenes NAME ...] [--perturb NAME ...] [--params JSON]
 [--guided JSON] [--halves JSON] [--baselines] [--ranking] [--grid] [--refine-radius N]
-[--both-features] [--timing N] [--smoke]``
+[--both-features] [--both JSON] [--timing N] [--smoke]``
 
 For every scene (motorcycle and, with ``../shared/data`` or ``HOPMATCH_SHARED_DATA``, every
 scene there) it prints: matches, correct@1px and precision@1px
@@ -62,17 +62,13 @@ left-camera view of the mirrored world), applied first.
 size rule (``hopmatch.matching.stereo_match.refine_radius``; docs/parameters.md,
 "Refinement window and image size").
 
-``--both-features [supported|added]`` runs ``match_stereo`` twice per pair, on the
-gradient (the detector's ``on``, as given) and on the other feature image (grey levels for
-the gradient), and adds to the first run's matches those of the second whose left point
-lies more than :data:`BOTH_SEPARATION` px from every left point the first matched (its
-passes printed as 10 and 11); ``supported`` (the default) adds only those that the first
-run's matches support: at least :data:`BOTH_MIN_SUPPORT` of them within
-:data:`BOTH_SUPPORT_RADIUS` px of the left point, their median disparity within
-:data:`BOTH_TOLERANCE` px of the match's. With ``--baselines`` SGBM is then sampled at the
-left points of both runs (the second's farther than :data:`BOTH_SEPARATION` px from the
-first's). What a second set of points would bring (docs/parameters.md, "Points on both
-feature images"); timings are of both runs.
+``--both-features`` matches with ``both_features=True`` (the pair matched on the gradient
+and again on grey levels, :mod:`hopmatch.matching.both_features`; the added matches are
+passes 2 and 3); ``--both JSON`` sets that module's constants first (``'{"MIN_SUPPORT":
+0}'``: every far match of the second run added, without the support test). With
+``--baselines`` SGBM is then sampled at the left points of both runs (the second's farther
+than ``SEPARATION`` px from the first's). docs/parameters.md, "Points on both feature
+images".
 
 ``--timing N`` adds, per scene (unperturbed), what ``--guided`` costs: ``match_stereo``
 run N times with the module's own constants and N times with ``--guided``'s, interleaved
@@ -111,77 +107,22 @@ from hopmatch.compare import METHODS  # noqa: E402
 from hopmatch.compare.methods import sgbm_uniqueness  # noqa: E402
 from hopmatch.evaluate import score_matches  # noqa: E402
 from hopmatch.feature import blocking  # noqa: E402
-from hopmatch.matching import guided, halves, plane_pass, planes  # noqa: E402
-
-#: ``--both-features``: a match of the second run is added when its left point lies farther
-#: than this (px) from every left point the first run matched.
-BOTH_SEPARATION = 1.5
-#: ``--both-features supported``: a match of the second run is added when at least
-#: ``BOTH_MIN_SUPPORT`` matches of the first lie within ``BOTH_SUPPORT_RADIUS`` px of its left
-#: point and their median disparity is within ``BOTH_TOLERANCE`` px of its own.
-BOTH_SUPPORT_RADIUS = 12.0
-BOTH_MIN_SUPPORT = 3
-BOTH_TOLERANCE = 1.0
+from hopmatch.matching import (  # noqa: E402
+    both_features,
+    guided,
+    halves,
+    plane_pass,
+    planes,
+)
 
 
-@dataclasses.dataclass
-class BothFeatures:
-    """``--both-features``' matches: the first run's, then the second's that were added
-    (their ``passes`` plus 10); ``points_left`` the first run's left points and the
-    second's farther than :data:`BOTH_SEPARATION` px from every one of them."""
-
-    matched_left: np.ndarray
-    matched_right: np.ndarray
-    distances: np.ndarray
-    passes: np.ndarray
-    points_left: np.ndarray
-
-
-def far_from(points: np.ndarray, others: np.ndarray, separation: float) -> np.ndarray:
-    """(N,) bool: which of ``points`` lie farther than ``separation`` from every one of
-    ``others`` (both (x, y) rows)."""
-    if not len(points) or not len(others):
-        return np.ones(len(points), dtype=bool)
-    from scipy.spatial import cKDTree
-
-    nearest, _ = cKDTree(others).query(points, k=1)
-    return nearest > separation
-
-
-def supported(points: np.ndarray, disparities: np.ndarray, others: np.ndarray,
-              other_disparities: np.ndarray) -> np.ndarray:
-    """(N,) bool: which ``points`` (x, y) have at least :data:`BOTH_MIN_SUPPORT` of
-    ``others`` within :data:`BOTH_SUPPORT_RADIUS` px whose median disparity lies within
-    :data:`BOTH_TOLERANCE` px of their own disparity."""
-    out = np.zeros(len(points), dtype=bool)
-    if not len(points) or not len(others):
-        return out
-    from scipy.spatial import cKDTree
-
-    near = cKDTree(others).query_ball_point(points, BOTH_SUPPORT_RADIUS)
-    for k, idx in enumerate(near):
-        out[k] = (len(idx) >= BOTH_MIN_SUPPORT and abs(
-            np.median(other_disparities[idx]) - disparities[k]) <= BOTH_TOLERANCE)
-    return out
-
-
-def both_features(left, right, params: dict, mode: str = "supported") -> BothFeatures:
-    """``match_stereo`` on the detector's feature image and on the other one, merged
-    (``--both-features MODE``)."""
-    first = hopmatch.match_stereo(left, right, **params)
-    other = "gradient" if params.get("on") == "intensity" else "intensity"
-    second = hopmatch.match_stereo(left, right, **{**params, "on": other})
-    added = far_from(second.matched_left, first.matched_left, BOTH_SEPARATION)
-    if mode == "supported":
-        added &= supported(second.matched_left, second.disparities, first.matched_left,
-                           first.disparities)
-    points = far_from(second.points_left, first.points_left, BOTH_SEPARATION)
-    return BothFeatures(
-        np.concatenate([first.matched_left, second.matched_left[added]]),
-        np.concatenate([first.matched_right, second.matched_right[added]]),
-        np.concatenate([first.distances, second.distances[added]]),
-        np.concatenate([first.passes, second.passes[added] + 10]),
-        np.concatenate([first.points_left, second.points_left[points]]))
+def points_of_both(res) -> np.ndarray:
+    """The left points of both runs of a ``both_features`` result: the first run's, and the
+    second's farther than ``SEPARATION`` px from every one of them."""
+    first = res.points_left[:len(res.points_left) - len(res.second.points_left)]
+    second = res.second.points_left
+    far = both_features.far_from(second, first, both_features.SEPARATION)
+    return np.concatenate((first, second[far]))
 
 
 def bilinear_gt(points: np.ndarray, disparity: np.ndarray) -> np.ndarray:
@@ -427,16 +368,22 @@ def main(argv=None) -> int:
     ap.add_argument("--grid", action="store_true",
                     help="also the wrong matches at a disparity within 0.5 px of a nonzero "
                          "multiple of 8 px (JPEG's block grid)")
-    ap.add_argument("--both-features", nargs="?", const="supported", default=None,
-                    choices=("supported", "added"),
-                    help="also match on the other feature image and add those matches "
-                         "(supported: only where the first run's matches agree)")
+    ap.add_argument("--both-features", action="store_true",
+                    help="match with both_features=True (both feature images)")
+    ap.add_argument("--both", default="{}",
+                    help="constants of hopmatch.matching.both_features to set (JSON object)")
     ap.add_argument("--timing", type=int, default=0,
                     help="also time --guided against the module's constants (N runs each)")
     args = add_smoke_option(add_refine_radius_option(ap)).parse_args(argv)
     single_thread()
     force_refine_radius(args.refine_radius)
     params = json.loads(args.params)
+    if args.both_features:
+        params["both_features"] = True
+    for name, value in json.loads(args.both).items():
+        if not (name.isupper() and hasattr(both_features, name)):
+            raise SystemExit(f"--both: hopmatch.matching.both_features has no constant {name!r}")
+        setattr(both_features, name, value)
     own = {}
     for name, value in json.loads(args.guided).items():
         module = constants_of(name)
@@ -454,8 +401,7 @@ def main(argv=None) -> int:
         print_timing(names, params, own, json.loads(args.guided), args.timing)
     for spec in args.perturb:
         print(f"## perturbation: {spec or 'none'}; params {params or 'defaults'}"
-              + (f"; both feature images ({args.both_features})" if args.both_features
-                 else "")
+              + (f"; both feature images {args.both}" if args.both_features else "")
               + (f"; guided {args.guided}" if args.guided != "{}" else "")
               + (f"; halves {args.halves}" if args.halves != "{}" else ""))
         print("scene | matches | correct | precision | med err | by pass (n/correct/prec/med)"
@@ -478,9 +424,7 @@ def main(argv=None) -> int:
                 warnings.simplefilter("ignore", hopmatch.errors.HopmatchWarning)
                 hopmatch.match_stereo(left[:64, :64], right[:64, :64], **params)
             t0 = time.perf_counter()
-            res = (both_features(left, right, params, args.both_features)
-                   if args.both_features
-                   else hopmatch.match_stereo(left, right, **params))
+            res = hopmatch.match_stereo(left, right, **params)
             secs = time.perf_counter() - t0
             left_pts, right_pts = unmap(res.matched_left, m_left), unmap(res.matched_right, m)
             k, c, p, med = score(left_pts, right_pts, scene.disparity)
@@ -504,8 +448,8 @@ def main(argv=None) -> int:
                 cs, cg = (score_matches(unmap(b.left_pts, m_left), unmap(b.right_pts, m),
                                         scene.disparity).correct[1.0]
                           for b in (METHODS["sift-ratio"](pair),
-                                    sgbm_uniqueness(pair, 10, res.points_left)
-                                    if args.both_features else METHODS["sgbm"](pair)))
+                                    sgbm_uniqueness(pair, 10, points_of_both(res))
+                                    if res.second is not None else METHODS["sgbm"](pair)))
                 tot["sift"] += cs
                 tot["sgbm"] += cg
                 row += f" | {cs}{'' if c >= cs else ' (miss)'} | {cg}"

@@ -2,17 +2,10 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
-
-ROOT = Path(__file__).resolve().parents[1]
-SHARED_DATA = Path(os.environ.get("HOPMATCH_SHARED_DATA", ROOT.parent / "shared" / "data"))
-NO_SHARED_DATA = (
-    f"../shared/data is absent (looked in {SHARED_DATA}); these tests need the shared stereo "
-    "data beside the project, or HOPMATCH_SHARED_DATA pointing at it"
-)
+from shared_data import NO_SHARED_DATA, SHARED_DATA
 
 
 @pytest.fixture(scope="session")

@@ -21,7 +21,7 @@ from ..errors import (
 from ..feature.detector import DericheMoravecDetector
 from ..feature.gradient import measurable_gray, normalised_intensity
 from ..feature.sharpness import equalise_sharpness
-from . import guided, halves
+from . import both_features, guided, halves
 from .channels import channels_kept, match_both_greys
 from .confidence import confidence_distances, fields_of_distances
 from .diagnostics import LooksUnrectifiedError, exposure_note, still_few, warn_if_no_keypoints
@@ -203,6 +203,9 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
                                         optional=True)
     if rectified is not None and not isinstance(rectified, (bool, np.bool_)):
         raise InvalidTypeError(f"`rectified` must be None, True or False, got {rectified!r}")
+    if config.both_features:  # twice, on each feature image (method.md 4.11)
+        return both_features.match_both_features(
+            lambda **kw: match_stereo(left, right, **kw), call, detector, matcher)
     channels = channels_kept(left, right, config.channel_clip_share, detector.getMaxPixels())
     if channels is not None:  # a view that clips channels the other does not (method.md 4.9)
         return match_both_greys(lambda gl, gr: match_stereo(gl, gr, **call),

@@ -53,7 +53,9 @@ class StereoMatchResult:
         Seconds spent in ``detect_left``, ``detect_right`` and ``match`` (the network and
         the steps after it), and ``geometry`` with ``rectified=False``.
     passes : (M,) uint8 ndarray
-        Which pass found each match: :data:`PASS_NETWORK` (0) or :data:`PASS_GUIDED` (1).
+        Which pass found each match: :data:`PASS_NETWORK` (0) or :data:`PASS_GUIDED` (1);
+        with ``both_features``, 2 and 3 for the network and the guided pass of the run on
+        the other feature image (``second``).
     n_detected_right : int
         How many rows of ``points_right`` are detected points (the rest are guided).
     guided : GuidedMatches or None
@@ -88,6 +90,10 @@ class StereoMatchResult:
         ``gain_field_tolerance``, the right view was mapped through it and the pair matched
         again, and where that found more matches they are returned
         (``tone_map.used``).
+    second : StereoMatchResult or None
+        With ``both_features``: the run on the other feature image, whole; the matches
+        of it that were added are those of ``passes`` 2 and 3
+        (:mod:`hopmatch.matching.both_features`). None otherwise.
     grey_channels : tuple of int or None
         None: the views' grey levels were ``cv2.COLOR_BGR2GRAY``'s (or they were grey).
         Otherwise the colour channels (0 B, 1 G, 2 R) the grey levels of both views were
@@ -116,6 +122,7 @@ class StereoMatchResult:
     sharpness: SharpnessMatch | None = None
     tone_map: ToneMap | None = None
     grey_channels: tuple | None = None
+    second: StereoMatchResult | None = None
 
     def __post_init__(self):
         if self.passes is None:

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SHARED_DATA
+from shared_data import SHARED_DATA
 
 ROOT = Path(__file__).resolve().parents[2]
 BENCHMARKS = ROOT / "benchmarks"
@@ -550,41 +550,23 @@ def test_passes_grey_changes_and_grid_smoke():
         assert proc.returncode != 0 and bad in proc.stderr, proc.stderr
 
 
-def test_passes_both_features_adds_the_second_runs_far_matches():
-    """docs/parameters.md ("Points on both feature images") quotes ``--both-features``:
-    the second run's matches (passes 10 and 11) are added only where the first matched no
-    left point within BOTH_SEPARATION px, and SGBM is sampled at both runs' points."""
-    sys.path.insert(0, str(BENCHMARKS))
-    try:
-        from passes import (
-            BOTH_MIN_SUPPORT,
-            BOTH_SEPARATION,
-            BOTH_SUPPORT_RADIUS,
-            BOTH_TOLERANCE,
-            far_from,
-            supported,
-        )
-    finally:
-        sys.path.remove(str(BENCHMARKS))
-    first = np.array([[10.0, 10.0], [50.0, 20.0]])
-    second = np.array([[10.0 + BOTH_SEPARATION, 10.0], [11.0, 11.0], [30.0, 30.0]])
-    assert far_from(second, first, BOTH_SEPARATION).tolist() == [False, False, True]
-    assert far_from(second, first[:0], BOTH_SEPARATION).tolist() == [True, True, True]
-    # support: BOTH_MIN_SUPPORT first-run matches on a circle inside the radius, disparity 7
-    angles = np.linspace(0, 2 * np.pi, BOTH_MIN_SUPPORT, endpoint=False)
-    ring = 100 + 0.9 * BOTH_SUPPORT_RADIUS * np.column_stack([np.cos(angles), np.sin(angles)])
-    d_ring = np.full(len(ring), 7.0)
-    query = np.array([[100.0, 100.0]] * 3)
-    d_query = np.array([7.0 + 0.9 * BOTH_TOLERANCE, 7.0 + 1.1 * BOTH_TOLERANCE, 7.0])
-    assert supported(query, d_query, ring, d_ring).tolist() == [True, False, True]
-    assert not supported(query, d_query, ring[1:], d_ring[1:]).any()  # one too few
-    out = run_script("passes.py", "--both-features", "--baselines")
+def test_passes_both_features_smoke():
+    """docs/parameters.md ("Points on both feature images") quotes ``--both-features``: the
+    added matches are passes 2 and 3, SGBM is sampled at both runs' points, and ``--both``
+    sets the module's constants (an unknown one is refused)."""
+    out = run_script("passes.py", "--both-features", "--baselines", "--both",
+                     '{"MIN_SUPPORT": 0}')
     assert_lines(
         out,
-        r"## perturbation: none; params defaults; both feature images \(supported\)",
-        r"motorcycle \| \d+ \| \d+ \| [\d.]+ \| .*\b1[01]: \d+/.* \| \d+ \| \d+ \| \d+",
+        r'## perturbation: none; params \{.both_features.: True\}; both feature images '
+        r'\{"MIN_SUPPORT": 0\}',
+        r"motorcycle \| \d+ \| \d+ \| [\d.]+ \| .*\b[23]: \d+/.* \| \d+ \| \d+ \| \d+",
         r"pooled: \d+ matches, \d+ correct, precision [\d.]+, .*SGBM \d+ \([\d.]+x\)",
     )
+    proc = subprocess.run([sys.executable, str(BENCHMARKS / "passes.py"), "--smoke",
+                           "--both", '{"NOPE": 1}'], cwd=ROOT, capture_output=True, text=True,
+                          timeout=TIMEOUT)
+    assert proc.returncode != 0 and "NOPE" in proc.stderr, proc.stderr
 
 
 def test_passes_crop_cuts_the_right_view_only():

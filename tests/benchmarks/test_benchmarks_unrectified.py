@@ -13,7 +13,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from conftest import SHARED_DATA
+from shared_data import SHARED_DATA
 
 ROOT = Path(__file__).resolve().parents[2]
 
