@@ -2,8 +2,8 @@
 
 Run: ``python benchmarks/unrectified.py [--sections perturbed chessboards large ranges
 truth fundamental]
-[--verge DEG] [--defaults] [--scenes NAME ...] [--refine-radius N] [--large-scene NAME
---large-factor F] [--large-params JSON]``
+[--verge DEG] [--defaults] [--params JSON] [--scenes NAME ...] [--refine-radius N]
+[--large-scene NAME --large-factor F] [--large-params JSON]``
 (single thread; needs ``../shared/data`` or ``$HOPMATCH_SHARED_DATA`` for every section but
 ``large``).
 
@@ -22,7 +22,9 @@ truth fundamental]
   :data:`DEFAULTS_PERTURBATIONS` (smaller ones too). ``--verge DEG``: every perturbation
   after the right camera turned by DEG degrees about its vertical axis (a homography,
   ``K R K^-1`` with a focal length of the image's width: a verged rig, whose rows no
-  similarity aligns).
+  similarity aligns). ``--params JSON``: more ``match_stereo`` parameters for this
+  section's calls and the chessboards' (``'{"both_features": true}'``); ``ref`` keeps the
+  defaults.
 - ``chessboards``: OpenCV's 13 chessboard pairs, raw and undistorted with their
   calibration (:func:`hopmatch.stereo.calibrate_from_corners` of the chessboard corners,
   as ``examples/stereo_calibration.py`` does: intrinsics by ``cv2.calibrateCamera``,
@@ -293,8 +295,11 @@ def f_error(F, scene, A, rng) -> tuple[float, float]:
     return float(np.median(e)), float(np.percentile(e, 95))
 
 
-def perturbed(names, perturbations, verge=0.0, defaults=False) -> None:
-    call = "match_stereo(left, right)" if defaults else "match_stereo(left, right, rectified=False)"
+def perturbed(names, perturbations, verge=0.0, defaults=False, params=None) -> None:
+    params = dict(params or {})
+    given = "".join(f", {k}={v!r}" for k, v in params.items())
+    call = (f"match_stereo(left, right{given})" if defaults
+            else f"match_stereo(left, right, rectified=False{given})")
     print(f"## Perturbed pairs: {call}"
           + (f", the right camera also verged by {verge:g} degrees" if verge else "") + "\n")
     print("| scene | rotation, shift, scale | matches | correct | precision | ref | ratio | "
@@ -314,7 +319,7 @@ def perturbed(names, perturbations, verge=0.0, defaults=False) -> None:
             t0 = time.perf_counter()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                r = hopmatch.match_stereo(scene.left, right,
+                r = hopmatch.match_stereo(scene.left, right, **params,
                                           **({} if defaults else {"rectified": False}))
             seconds = time.perf_counter() - t0
             t, known = truth(r.matched_left, scene.disparity, A)
@@ -409,7 +414,7 @@ def cv2_path(left, right):
             cv2.KeyPoint_convert(kr)[[x.trainIdx for x in ms]].reshape(-1, 2))
 
 
-def chessboards(smoke: bool) -> None:
+def chessboards(smoke: bool, params=None) -> None:
     folder = datasets.shared_data_dir() / "opencv_stereo_calib"
     cal, used = calibration(folder)
     if smoke:
@@ -428,7 +433,7 @@ def chessboards(smoke: bool) -> None:
                 right = cv2.undistort(right, cal.K2, cal.D2)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                r = hopmatch.match_stereo(left, right, rectified=False)
+                r = hopmatch.match_stereo(left, right, rectified=False, **(params or {}))
                 cells = [on_lines(cal, r.matched_left, r.matched_right, undistorted),
                          on_lines(cal, *cv2_path(left, right), undistorted)]
             label = "undistorted" if undistorted else "raw"
@@ -647,6 +652,10 @@ def main(argv=None) -> int:
     ap.add_argument("--defaults", action="store_true",
                     help="perturbed: match_stereo(left, right) with no parameter (the "
                          "rectification check decides), over smaller perturbations too")
+    ap.add_argument("--params", type=json.loads, default=None,
+                    help="perturbed and chessboards: more match_stereo parameters (JSON "
+                         "object; default none), e.g. '{\"both_features\": true}'; the "
+                         "reference on the rectified pair keeps the defaults")
     ap.add_argument("--large-scene", default="motorcycle",
                     help="large: the scene upsampled (default motorcycle)")
     ap.add_argument("--large-params", type=json.loads, default=None,
@@ -674,9 +683,10 @@ def main(argv=None) -> int:
             print("## Chessboard pairs: skipped (no shared data)\n")
         elif section == "perturbed":
             chosen = DEFAULTS_PERTURBATIONS if args.defaults else PERTURBATIONS
-            perturbed(names, chosen[:1] if args.smoke else chosen, args.verge, args.defaults)
+            perturbed(names, chosen[:1] if args.smoke else chosen, args.verge, args.defaults,
+                      args.params)
         elif section == "chessboards":
-            chessboards(args.smoke)
+            chessboards(args.smoke, args.params)
         elif section == "ranges":
             ranges(names)
         elif section == "fundamental":

@@ -32,6 +32,7 @@ __all__ = [
     "FewMatchesWarning",
     "NotStereoPairWarning",
     "GeometryWarning",
+    "BudgetExceededWarning",
 ]
 
 
@@ -164,6 +165,13 @@ class NotStereoPairWarning(FewMatchesWarning):
     look-alike anywhere near its row in the right image (see
     :func:`hopmatch.matching.diagnostics.stereo_pair_evidence`). A
     :class:`FewMatchesWarning` whose cause is that diagnosis."""
+
+
+class BudgetExceededWarning(HopmatchWarning):
+    """An optional step of the call was left out because its candidate pairs would exceed
+    ``max_candidates`` (the call's other steps fit): with ``both_features=True``, the second
+    run, on the other feature image. The result is that of the steps made; raise
+    ``max_candidates`` or narrow the disparity range to have the step."""
 
 
 class GeometryWarning(HopmatchWarning):

@@ -22,7 +22,8 @@ import dataclasses
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._warnings import deferred_warnings
+from .._warnings import deferred_warnings, warn
+from ..errors import BudgetExceededError, BudgetExceededWarning
 from .stereo_result import PASS_GUIDED, StereoMatchResult
 
 #: A second-run match is added only when its left point lies farther than this (px) from
@@ -156,7 +157,9 @@ def match_both_features(run, call: dict, detector, matcher) -> StereoMatchResult
     of :func:`added_matches`). ``detector`` is the detector the first run uses (``call``'s,
     or one made of its parameters); ``matcher`` ``call``'s instance or None, cloned, never
     changed. The second run's warnings are not given: the first run has said what there
-    is to say about the pair."""
+    is to say about the pair. A second run over the candidate budget
+    (:class:`~hopmatch.errors.BudgetExceededError`) is left out: the first run is returned,
+    with a :class:`~hopmatch.errors.BudgetExceededWarning`."""
     first_call = dict(call)
     if matcher is not None:
         first_matcher = matcher.clone(emptyTrainData=True)
@@ -171,6 +174,11 @@ def match_both_features(run, call: dict, detector, matcher) -> StereoMatchResult
     else:
         second_call["on"] = other
     first = run(**first_call)
-    with deferred_warnings():
-        second = run(**second_call)
+    try:
+        with deferred_warnings():
+            second = run(**second_call)
+    except BudgetExceededError as error:
+        warn(f"both_features: the second run, on the {other} image, was left out: {error}; "
+             "the matches are the first run's", BudgetExceededWarning)
+        return first
     return merge_results(first, second, added_matches(first, second))

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from synthetic_pairs import texture
 
 import hopmatch
-from hopmatch.errors import FewMatchesWarning
+from hopmatch.errors import BudgetExceededError, BudgetExceededWarning, FewMatchesWarning
 from hopmatch.matching import both_features
 from hopmatch.matching.stereo_result import PASS_GUIDED, PASS_NETWORK
 
@@ -136,6 +136,19 @@ def test_the_second_runs_warnings_are_not_given():
         res = hopmatch.match_stereo(flat, flat, both_features=True)
     assert len(res.query_idx) == 0 and res.second is not None
     assert len([w for w in caught if issubclass(w.category, FewMatchesWarning)]) == 1
+
+
+def test_a_second_run_over_the_budget_is_left_out_with_a_warning():
+    left, right = textured_pair()
+    budget = {"max_disparity": 16, "max_neurons": 4000}
+    first = hopmatch.match_stereo(left, right, **budget)  # fits the budget...
+    with pytest.raises(BudgetExceededError):  # ...where the grey-level run does not
+        hopmatch.match_stereo(left, right, on="intensity", **budget)
+    with pytest.warns(BudgetExceededWarning, match="second run, on the intensity image"):
+        res = hopmatch.match_stereo(left, right, both_features=True, **budget)
+    assert res.second is None and len(res.query_idx) > 0
+    np.testing.assert_array_equal(res.matched_left, first.matched_left)
+    np.testing.assert_array_equal(res.matched_right, first.matched_right)
 
 
 @pytest.mark.parametrize("threads", [1, 2])
