@@ -64,7 +64,9 @@ size rule (``hopmatch.matching.stereo_match.refine_radius``; docs/parameters.md,
 
 ``--both-features`` matches with ``both_features=True`` (the pair matched on the gradient
 and again on grey levels, :mod:`hopmatch.matching.both_features`; the added matches are
-passes 2 and 3); ``--both JSON`` sets that module's constants first (``'{"MIN_SUPPORT":
+passes 2 and 3; the default since 2026-12-07, so that the flag matters only after
+``--params`` turned it off: ``--params '{"both_features": false}'`` is the single run);
+``--both JSON`` sets that module's constants first (``'{"MIN_SUPPORT":
 0}'``: every far match of the second run added, without the support test). With
 ``--baselines`` SGBM is then sampled at the left points of both runs (the second's farther
 than ``SEPARATION`` px from the first's). docs/parameters.md, "Points on both feature

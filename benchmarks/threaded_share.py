@@ -19,6 +19,10 @@ pair's matches) run once, and two copies of the same call at once in two threads
 when two threads run two kernels as fast as one runs one (a machine whose cores share
 caches, memory bandwidth or a clock that drops with load gives less). ``--smoke``: on a
 240 x 160 crop, 2 pairs (figures meaningless).
+
+Every call matches one run (``both_features=False``): the threading inside a run. With
+``both_features`` (the default since 2026-12-07) two threads first run the two runs at
+once, one thread each (``benchmarks/end_to_end.py``'s two-thread row).
 """
 
 from __future__ import annotations
@@ -40,6 +44,9 @@ import hopmatch  # noqa: E402
 from hopmatch import _threads  # noqa: E402
 from hopmatch._kernels.refine import refine_rows  # noqa: E402
 from hopmatch.matching import refine  # noqa: E402
+
+#: The calls' parameters: one run, whose threading this measures (the module's docstring).
+ONE_RUN = {"both_features": False}
 
 
 class Regions:
@@ -151,7 +158,7 @@ def two_thread_regions(gl, gr, pairs: int) -> None:
         for threads in (1, 2):
             sites.wall = {}
             t0 = time.perf_counter()
-            hopmatch.match_stereo(gl, gr, threads=threads)
+            hopmatch.match_stereo(gl, gr, threads=threads, **ONE_RUN)
             runs[threads].append((time.perf_counter() - t0, sites.wall))
     unpatch(replaced)
 
@@ -218,12 +225,13 @@ def main(argv=None) -> None:
     left, right, _ = motorcycle_bgr(smoke=args.smoke)
     gl = cv2.cvtColor(left, cv2.COLOR_BGR2GRAY)
     gr = cv2.cvtColor(right, cv2.COLOR_BGR2GRAY)
-    res = hopmatch.match_stereo(gl, gr, threads=1)  # untimed; its matches for the last check
+    # untimed; its matches for the last check
+    res = hopmatch.match_stereo(gl, gr, threads=1, **ONE_RUN)
     regions = Regions()
     replaced = patch(lambda helper: getattr(regions, helper))
     t0 = time.process_time()
     for _ in range(pairs):
-        hopmatch.match_stereo(gl, gr, threads=1)
+        hopmatch.match_stereo(gl, gr, threads=1, **ONE_RUN)
     total = (time.process_time() - t0) / pairs
     inside, split = regions.inside / pairs, regions.split / pairs
     serial = total - inside
@@ -242,7 +250,7 @@ def main(argv=None) -> None:
     regions.profiler = prof
     prof.enable()
     for _ in range(pairs):
-        hopmatch.match_stereo(gl, gr, threads=1)
+        hopmatch.match_stereo(gl, gr, threads=1, **ONE_RUN)
     prof.disable()
     regions.profiler = None
     top, _ = profile_rows(prof, pairs, 20)

@@ -23,6 +23,7 @@ from .._validate import as_match_indices
 from ..datasets import StereoScene
 from ..errors import InvalidArgumentError
 from ..feature.detector import DericheMoravecDetector
+from ..matching import both_features
 from ..matching.matcher import HopfieldMatcher
 from ..matching.stereo_match import match_stereo
 
@@ -274,9 +275,14 @@ def _ncc_wta(left: np.ndarray, right: np.ndarray, pts_int: np.ndarray, max_dispa
 
 
 def _moravec_left(gray: np.ndarray, half: int):
-    """hopmatch's default detector on the left image; integer positions inside a margin."""
+    """The left points of ``match_stereo``'s defaults (``both_features``): the default
+    detector's on the gradient, and its points on grey levels farther than
+    :data:`~hopmatch.matching.both_features.SEPARATION` px from every one of those;
+    integer positions inside a margin."""
     pts, _, _ = DericheMoravecDetector().detect_points(gray)
-    return _inside(pts, gray.shape, half)
+    grey, _, _ = DericheMoravecDetector(on="intensity").detect_points(gray)
+    far = both_features.far_from(grey, pts, both_features.SEPARATION)
+    return _inside(np.concatenate((pts, grey[far])), gray.shape, half)
 
 
 def _inside(points: np.ndarray, shape: tuple, half: int = 0):
@@ -377,7 +383,8 @@ def sift_ratio_scored(scene: StereoScene) -> tuple[MethodResult, np.ndarray]:
 METHODS: dict[str, Callable[[StereoScene], MethodResult]] = {
     "hopmatch": _hopmatch(),
     "hopmatch-paper": _hopmatch(preset="paper"),
-    "hopmatch-intensity": _hopmatch(on="intensity"),
+    "hopmatch-gradient": _hopmatch(both_features=False),
+    "hopmatch-intensity": _hopmatch(on="intensity", both_features=False),
     "hopfield-sift": hopfield_on_sift,
     "sift-ratio": _ratio(cv2.SIFT_create, cv2.NORM_L2, band=False),
     "sift-ratio-band": _ratio(cv2.SIFT_create, cv2.NORM_L2, band=True),
@@ -391,12 +398,14 @@ METHODS: dict[str, Callable[[StereoScene], MethodResult]] = {
 
 #: One line per method, for tables and ``--help``.
 DESCRIPTIONS: dict[str, str] = {
-    "hopmatch": "hopmatch.match_stereo, defaults (Moravec on the Deriche gradient + Hopfield "
-                "network)",
+    "hopmatch": "hopmatch.match_stereo, defaults (Moravec on the Deriche gradient and on grey "
+                "levels + Hopfield network)",
     "hopmatch-paper": "match_stereo(preset='paper'): the paper's section 4 settings (its "
                       "+-15 px vertical window kept; disparity range as for every method)",
-    "hopmatch-intensity": "match_stereo(on='intensity'): detector and descriptors on grey "
-                          "levels instead of the gradient",
+    "hopmatch-gradient": "match_stereo(both_features=False): one run, on the gradient's "
+                         "points (the defaults until 2026-12-07)",
+    "hopmatch-intensity": "match_stereo(on='intensity', both_features=False): one run, "
+                          "detector and descriptors on grey levels instead of the gradient",
     "hopfield-sift": "HopfieldMatcher (defaults) on SIFT keypoints and descriptors",
     "sift-ratio": "SIFT + BFMatcher(NORM_L2) knnMatch k=2, ratio 0.75",
     "sift-ratio-band": "as sift-ratio, knnMatch masked to the rectified band (|yl-yr| <= 1, "

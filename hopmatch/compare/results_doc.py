@@ -144,8 +144,9 @@ def format_results_doc(rows: Sequence[Mapping], scenes: Sequence[StereoScene], *
         "range, **0 .. ceil(1.1 × the largest finite ground-truth disparity)** of the scene "
         "(column `max_disparity` of the CSV): what a user with a calibrated rig would set. "
         "hopmatch gets it as `max_disparity`; the band baselines, NCC and SGBM search it.",
-        "- Time: wall time of detection on both images + matching, one OpenCV thread "
-        "(`cv2.setNumThreads(1)`; hopmatch's Numba kernels are single-threaded), measured "
+        "- Time: wall time of detection on both images + matching, one thread "
+        "(`cv2.setNumThreads(1)` and `hopmatch.setNumThreads(1)`: hopmatch's two runs of "
+        "`both_features` one after the other), measured "
         f"in this run: the shortest of {repeat} run{'s' if repeat != 1 else ''} per method "
         "and scene, after an untimed warm-up of every method "
         "on a small synthetic pair (Numba kernels loaded, OpenCV's first-call set-up done).",

@@ -7,11 +7,13 @@ threshold), on one OpenCV thread, after an untimed warm-up.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
 
 import cv2
 import numpy as np
 
+from .._threads import getNumThreads, setNumThreads
 from ..datasets import StereoScene, load
 from ..errors import InvalidArgumentError, InvalidTypeError
 from ..evaluate import score_matches
@@ -47,15 +49,25 @@ def _method(item) -> tuple[str, Callable]:
     )
 
 
+@contextlib.contextmanager
+def one_thread():
+    """Within the block OpenCV and hopmatch run on one thread each (``cv2.setNumThreads(1)``,
+    ``hopmatch.setNumThreads(1)``); their counts of before are restored on the way out."""
+    old_cv, old_hop = cv2.getNumThreads(), getNumThreads()
+    cv2.setNumThreads(1)
+    setNumThreads(1)
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(old_cv)
+        setNumThreads(old_hop)
+
+
 def run_method(method, scene) -> MethodResult:
     """Run one method (a name of :data:`METHODS` or a callable) on one scene, one thread."""
     _, fn = _method(method)
-    old = cv2.getNumThreads()
-    cv2.setNumThreads(1)
-    try:
+    with one_thread():
         out = fn(_scene(scene))
-    finally:
-        cv2.setNumThreads(old)
     return MethodResult(*out)
 
 
@@ -122,9 +134,7 @@ def compare(scenes, methods=None, *, progress: Callable[[str], None] | None = No
     if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
         raise InvalidArgumentError(f"`repeat` must be a positive integer, got {repeat!r}")
     loaded = [_scene(s) for s in scenes]
-    old = cv2.getNumThreads()
-    cv2.setNumThreads(1)
-    try:
+    with one_thread():
         if warmup:
             from .. import warmup as compile_kernels
 
@@ -144,6 +154,4 @@ def compare(scenes, methods=None, *, progress: Callable[[str], None] | None = No
                 runs = [MethodResult(*fn(scene)) for _ in range(repeat)]
                 best = min(r.seconds for r in runs)
                 rows.append(_score_row(scene, name, runs[-1]._replace(seconds=best), dmax))
-    finally:
-        cv2.setNumThreads(old)
     return rows

@@ -10,9 +10,14 @@ matched that place and agrees with them:
   run matched (no second match of one place), and
 * the first run supports them (:func:`supported`): at least :data:`MIN_SUPPORT` of its
   matches lie within :data:`SUPPORT_RADIUS` px of the left point, and their median
-  disparity is within :data:`SUPPORT_TOLERANCE` px of the added match's. The first run's
-  matches are the judge: a second run that fails (grey levels under JPEG and a gain
-  change, docs/parameters.md "Points on both feature images") adds little.
+  disparity (and median ``yl - yr``: :data:`VERTICAL_SUPPORT`) is within
+  :data:`SUPPORT_TOLERANCE` px of the added match's, and
+* where the first run estimated the pair's geometry (an unrectified pair), the match lies
+  within :data:`EPIPOLAR_TOLERANCE` px of its epipolar lines.
+
+The first run's matches are the judge: a second run that fails (grey levels under JPEG and
+a gain change, docs/parameters.md "Points on both feature images") adds little. The two
+runs run at once on two threads when the call has two or more.
 """
 
 from __future__ import annotations
@@ -22,8 +27,10 @@ import dataclasses
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .._threads import run_both
 from .._warnings import deferred_warnings, warn
 from ..errors import BudgetExceededError, BudgetExceededWarning
+from .geometry import symmetric_epipolar_error
 from .stereo_result import PASS_GUIDED, StereoMatchResult
 
 #: A second-run match is added only when its left point lies farther than this (px) from
@@ -36,6 +43,15 @@ SUPPORT_RADIUS = 12.0
 MIN_SUPPORT = 3
 #: ... whose median disparity must lie within this many px of its own.
 SUPPORT_TOLERANCE = 1.0
+#: The support test also holds for the vertical offsets ``yl - yr``: the median of the
+#: supporting matches' within :data:`SUPPORT_TOLERANCE` px of the added match's. On a
+#: rectified pair both runs keep near one offset; on an unrectified pair (each run has
+#: estimated its own geometry) it is the second dimension of the displacement.
+VERTICAL_SUPPORT = True
+#: On a pair whose geometry the first run estimated (``rectified=False``; each run
+#: estimates its own), an added match must lie within this many px (the mean of its two
+#: point-to-line distances) of the first run's epipolar lines.
+EPIPOLAR_TOLERANCE = 0.5
 #: ``result.passes`` of a second-run match: this plus its pass in that run (2: its
 #: network, 3: its guided pass).
 SECOND_RUN_PASSES = PASS_GUIDED + 1
@@ -58,50 +74,80 @@ def far_from(points: np.ndarray, others: np.ndarray, separation: float) -> np.nd
 
 def neighbour_medians(points: np.ndarray, others: np.ndarray, values: np.ndarray,
                       radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(count, median)``, each (N,): how many of ``others`` lie within ``radius`` of each
-    of ``points`` (distance <= radius) and the median of their ``values`` (NaN where none),
-    for every point at once (the pairs sorted by point, then by value)."""
+    """``(count, median)``: how many of ``others`` lie within ``radius`` of each of
+    ``points`` (distance <= radius), (N,), and the median of their ``values`` (NaN where
+    none): (N,) for (M,) ``values``, (N, k) for (M, k), one median per column, from one
+    search of the pairs within reach. For every point at once: per column, the pairs are
+    sorted by point, then by value, in one sort of ``point * span + value``."""
+    values = np.asarray(values, dtype=np.float64)
     n = len(points)
     count = np.zeros(n, dtype=np.int64)
-    median = np.full(n, np.nan)
+    median = np.full((n,) + values.shape[1:], np.nan)
     if n == 0 or len(others) == 0:
         return count, median
     pairs = cKDTree(points).sparse_distance_matrix(cKDTree(others), radius,
                                                    output_type="ndarray")
-    rows, cols = pairs["i"].astype(np.intp), pairs["j"].astype(np.intp)
-    vals = np.asarray(values, dtype=np.float64)[cols]
-    order = np.lexsort((vals, rows))
-    rows, vals = rows[order], vals[order]
+    rows = pairs["i"].astype(np.intp)
     count = np.bincount(rows, minlength=n)
-    start = np.concatenate(([0], np.cumsum(count)[:-1]))
     has = count > 0
-    lo = start[has] + (count[has] - 1) // 2
-    hi = start[has] + count[has] // 2
-    median[has] = 0.5 * (vals[lo] + vals[hi])
+    start = np.concatenate(([0], np.cumsum(count)[:-1]))[has]
+    lo, hi = start + (count[has] - 1) // 2, start + count[has] // 2
+    grouped = np.repeat(np.arange(n, dtype=np.float64), count)  # rows, sorted
+    columns = values.reshape(len(values), -1)[pairs["j"].astype(np.intp)]
+    out = median.reshape(n, -1)
+    for c in range(columns.shape[1]):
+        vals = columns[:, c]
+        if len(vals) == 0:
+            continue
+        low = vals.min()
+        span = vals.max() - low + 1.0
+        key = np.sort(rows * span + (vals - low))  # by row, then by value
+        ordered = key - grouped * span + low
+        out[has, c] = 0.5 * (ordered[lo] + ordered[hi])
     return count, median
 
 
-def supported(points: np.ndarray, disparities: np.ndarray, others: np.ndarray,
-              other_disparities: np.ndarray) -> np.ndarray:
-    """(N,) bool: which matches (left ``points``, ``disparities``) the matches ``others``
-    (left points, ``other_disparities``) support: at least :data:`MIN_SUPPORT` of them
-    within :data:`SUPPORT_RADIUS` px, whose median disparity lies within
+def supported(points: np.ndarray, displacements: np.ndarray, others: np.ndarray,
+              other_displacements: np.ndarray) -> np.ndarray:
+    """(N,) bool: which matches (left ``points``, ``displacements``: (N,) disparities, or
+    (N, k) columns such as disparity and ``yl - yr``) the matches ``others`` (left points,
+    ``other_displacements`` alike) support: at least :data:`MIN_SUPPORT` of them within
+    :data:`SUPPORT_RADIUS` px, whose median of each column lies within
     :data:`SUPPORT_TOLERANCE` px of the match's; all of them when :data:`MIN_SUPPORT` is
     0."""
-    if MIN_SUPPORT <= 0:
-        return np.ones(len(points), dtype=bool)
-    count, median = neighbour_medians(points, others, other_disparities, SUPPORT_RADIUS)
+    if MIN_SUPPORT <= 0 or len(points) == 0:
+        return np.full(len(points), MIN_SUPPORT <= 0)
+    count, median = neighbour_medians(points, others, other_displacements, SUPPORT_RADIUS)
+    own = np.asarray(displacements, dtype=np.float64)
     with np.errstate(invalid="ignore"):
-        agree = np.abs(median - np.asarray(disparities, dtype=np.float64)) <= SUPPORT_TOLERANCE
+        agree = (np.abs(median - own) <= SUPPORT_TOLERANCE).reshape(len(own), -1).all(axis=1)
     return (count >= MIN_SUPPORT) & agree
+
+
+def displacements(result: StereoMatchResult) -> np.ndarray:
+    """What the support test compares of each match of ``result``: (M,) disparities, or
+    with :data:`VERTICAL_SUPPORT` (M, 2) disparities and vertical offsets ``yl - yr``."""
+    d = np.asarray(result.disparities, dtype=np.float64)
+    if not VERTICAL_SUPPORT:
+        return d
+    dy = (result.matched_left[:, 1].astype(np.float64)
+          - result.matched_right[:, 1].astype(np.float64))
+    return np.column_stack([d, dy])
 
 
 def added_matches(first: StereoMatchResult, second: StereoMatchResult) -> np.ndarray:
     """(M2,) bool: which of ``second``'s matches are added to ``first``'s (the module's
-    two tests)."""
+    tests: far from the first's matches, supported by them, on disparity and, with
+    :data:`VERTICAL_SUPPORT`, ``yl - yr`` too; when the first run estimated the pair's
+    geometry, within :data:`EPIPOLAR_TOLERANCE` of its epipolar lines). The support is
+    measured for the far matches only."""
     keep = far_from(second.matched_left, first.matched_left, SEPARATION)
-    keep &= supported(second.matched_left, second.disparities, first.matched_left,
-                      first.disparities)
+    far = np.flatnonzero(keep)
+    keep[far] = supported(second.matched_left[far], displacements(second)[far],
+                          first.matched_left, displacements(first))
+    if first.geometry is not None and first.fundamental_matrix is not None and keep.any():
+        keep &= symmetric_epipolar_error(first.fundamental_matrix, second.matched_left,
+                                         second.matched_right) <= EPIPOLAR_TOLERANCE
     return keep
 
 
@@ -150,16 +196,19 @@ def merge_results(first: StereoMatchResult, second: StereoMatchResult,
         n_detected_right=n1 + n2, refinement=refinement, second=second)
 
 
-def match_both_features(run, call: dict, detector, matcher) -> StereoMatchResult:
+def match_both_features(run, call: dict, detector, matcher,
+                        threads: int = 1) -> StereoMatchResult:
     """What ``match_stereo(..., both_features=True)`` returns: ``run(**keywords)`` (that
     ``match_stereo`` on the same pair) with ``call``'s keywords and ``both_features`` off,
     then again with the detector on the other feature image, merged (:func:`merge_results`
     of :func:`added_matches`). ``detector`` is the detector the first run uses (``call``'s,
     or one made of its parameters); ``matcher`` ``call``'s instance or None, cloned, never
-    changed. The second run's warnings are not given: the first run has said what there
-    is to say about the pair. A second run over the candidate budget
-    (:class:`~hopmatch.errors.BudgetExceededError`) is left out: the first run is returned,
-    with a :class:`~hopmatch.errors.BudgetExceededWarning`."""
+    changed. With ``threads`` >= 2 the two runs run at once, one thread each (each run's
+    result is the same for any thread count, so the merge is too). The second run's
+    warnings are not given: the first run has said what there is to say about the pair. A
+    second run over the candidate budget (:class:`~hopmatch.errors.BudgetExceededError`) is
+    left out: the first run is returned, with a
+    :class:`~hopmatch.errors.BudgetExceededWarning`."""
     first_call = dict(call)
     if matcher is not None:
         first_matcher = matcher.clone(emptyTrainData=True)
@@ -167,18 +216,25 @@ def match_both_features(run, call: dict, detector, matcher) -> StereoMatchResult
         first_call["matcher"] = first_matcher
     else:
         first_call["both_features"] = False
+    if threads >= 2:
+        first_call["threads"] = 1
     second_call = dict(first_call)
     other = other_feature(detector.get_params()["on"])
     if call.get("detector") is not None:
         second_call["detector"] = type(detector)(**{**detector.get_params(), "on": other})
     else:
         second_call["on"] = other
-    first = run(**first_call)
-    try:
-        with deferred_warnings():
-            second = run(**second_call)
-    except BudgetExceededError as error:
-        warn(f"both_features: the second run, on the {other} image, was left out: {error}; "
+
+    def second_run():
+        try:
+            with deferred_warnings():
+                return run(**second_call)
+        except BudgetExceededError as error:
+            return error
+
+    first, second = run_both(lambda: run(**first_call), second_run, threads)
+    if isinstance(second, BudgetExceededError):
+        warn(f"both_features: the second run, on the {other} image, was left out: {second}; "
              "the matches are the first run's", BudgetExceededWarning)
         return first
     return merge_results(first, second, added_matches(first, second))

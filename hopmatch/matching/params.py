@@ -136,12 +136,13 @@ MATCHER_PARAMS: tuple[Param, ...] = (
         "match_stereo's sub-pixel refinement: every match's right x moved to the peak of "
         "the ZNCC of 7 x 7 grey windows along the row, by re-centred parabola fits "
         "(hopmatch.matching.refine)")),
-    Param("both_features", False, boolean(), doc=(
+    Param("both_features", True, boolean(), doc=(
         "match_stereo: match the pair a second time on the other feature image (grey "
         "levels when the detector is on the gradient, and the reverse) and add that run's "
         "matches where the first matched no left point within 1.5 px and its matches "
-        "within 12 px agree on the disparity (hopmatch.matching.both_features; "
-        "result.passes 2 and 3, result.second); about twice the time")),
+        "within 12 px agree on the disparity and the vertical offset "
+        "(hopmatch.matching.both_features; result.passes 2 and 3, result.second); about "
+        "twice the CPU time, the two runs at once with 2 or more threads; False: one run")),
     # resource budget
     Param("max_neurons", 5_000_000, integer(1), doc=(
         "Budget: most candidate pairs (neurons) allowed; more raise BudgetExceededError "

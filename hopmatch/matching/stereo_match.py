@@ -164,7 +164,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         or a varying gain (``tone_tolerance``, ``gain_field_tolerance``) the right view is
         mapped through them and the pair matched again (``result.tone_map``; a first
         match too poor to read the map off has it read off the two views' histograms).
-        ``preset="paper"`` turns all four off.
+        ``preset="paper"`` turns all four off, and ``both_features`` (method.md 4.11).
 
     Examples
     --------
@@ -175,7 +175,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
     >>> res = match_stereo(left, right, max_disparity=12)
     >>> bool(abs(np.median(res.disparities) - 6.0) < 0.01), len(res.matches) > 20
     (True, True)
-    >>> sorted(set(res.passes.tolist())) in ([0], [0, 1])  # 0: network, 1: guided pass
+    >>> set(res.passes.tolist()) <= {0, 1, 2, 3}  # network, guided; the same of the 2nd run
     True
     """
     call = dict(mask_left=mask_left, mask_right=mask_right, rectified=rectified,
@@ -205,7 +205,7 @@ def match_stereo(left, right, *, mask_left=None, mask_right=None, fundamental_ma
         raise InvalidTypeError(f"`rectified` must be None, True or False, got {rectified!r}")
     if config.both_features:  # twice, on each feature image (method.md 4.11)
         return both_features.match_both_features(
-            lambda **kw: match_stereo(left, right, **kw), call, detector, matcher)
+            lambda **kw: match_stereo(left, right, **kw), call, detector, matcher, threads)
     channels = channels_kept(left, right, config.channel_clip_share, detector.getMaxPixels())
     if channels is not None:  # a view that clips channels the other does not (method.md 4.9)
         return match_both_greys(lambda gl, gr: match_stereo(gl, gr, **call),

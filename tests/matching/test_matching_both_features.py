@@ -4,6 +4,7 @@ run's matches added where the first matched nothing near and supports them."""
 from __future__ import annotations
 
 import warnings
+from types import SimpleNamespace
 
 import cv2
 import numpy as np
@@ -11,10 +12,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from synthetic_pairs import texture
+from unrect_scene import render_pair
 
 import hopmatch
 from hopmatch.errors import BudgetExceededError, BudgetExceededWarning, FewMatchesWarning
 from hopmatch.matching import both_features
+from hopmatch.matching.geometry import symmetric_epipolar_error
 from hopmatch.matching.stereo_result import PASS_GUIDED, PASS_NETWORK
 
 DISPARITY = 6
@@ -44,7 +47,18 @@ def test_neighbour_medians_equal_the_slow_reference(n, m, seed, radius):
     count, median = both_features.neighbour_medians(points, others, values, radius)
     want_count, want_median = slow_neighbour_medians(points, others, values, radius)
     np.testing.assert_array_equal(count, want_count)
-    np.testing.assert_allclose(median, want_median, equal_nan=True)
+    # (a median read back off the sort key ``point * span + value`` is off by a rounding)
+    np.testing.assert_allclose(median, want_median, atol=1e-9, equal_nan=True)
+    # two columns at once (disparity and yl - yr): each the median of its own column
+    other = np.round(rng.normal(0, 0.7, m), 1)
+    count2, both = both_features.neighbour_medians(points, others,
+                                                   np.column_stack([values, other]), radius)
+    np.testing.assert_array_equal(count2, want_count)
+    assert both.shape == (n, 2)
+    np.testing.assert_allclose(both[:, 0], want_median, atol=1e-9, equal_nan=True)
+    np.testing.assert_allclose(both[:, 1], slow_neighbour_medians(points, others, other,
+                                                                  radius)[1], atol=1e-9,
+                               equal_nan=True)
 
 
 def test_far_from_and_supported_draw_the_documented_lines():
@@ -76,9 +90,10 @@ def textured_pair(h=160, w=220):
 
 def test_the_merged_result_keeps_both_runs_and_the_layout():
     left, right = textured_pair()
-    first = hopmatch.match_stereo(left, right, max_disparity=16)
-    second = hopmatch.match_stereo(left, right, max_disparity=16, on="intensity")
-    res = hopmatch.match_stereo(left, right, max_disparity=16, both_features=True)
+    first = hopmatch.match_stereo(left, right, max_disparity=16, both_features=False)
+    second = hopmatch.match_stereo(left, right, max_disparity=16, on="intensity",
+                                   both_features=False)
+    res = hopmatch.match_stereo(left, right, max_disparity=16)  # both_features by default
     keep = both_features.added_matches(first, second)
     assert 0 < keep.sum() < len(keep)
     m1 = len(first.query_idx)
@@ -107,6 +122,66 @@ def test_the_merged_result_keeps_both_runs_and_the_layout():
     assert isinstance(res.matches[-1], cv2.DMatch)
     # every added match is 1 px off the true disparity at most
     assert np.all(np.abs(res.disparities - DISPARITY) < 1.0)
+
+
+def run_of(left, disparity, dy, geometry=None):
+    """What :func:`both_features.added_matches` reads of a run's result."""
+    left = np.asarray(left, dtype=np.float32)
+    right = left - np.column_stack([disparity, dy]).astype(np.float32)
+    rows_f = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # yl = yr
+    return SimpleNamespace(matched_left=left, matched_right=right,
+                           disparities=np.asarray(disparity, np.float32), geometry=geometry,
+                           fundamental_matrix=None if geometry is None else rows_f)
+
+
+@pytest.mark.parametrize("estimated", [False, True])
+def test_the_vertical_offset_and_an_estimated_geometry_are_tested_too(estimated):
+    ys, xs = np.mgrid[0:60:5, 0:60:5]
+    grid = np.column_stack([xs.ravel(), ys.ravel()]).astype(np.float64)
+    geometry = object() if estimated else None
+    first = run_of(grid, np.full(len(grid), 5.0), np.zeros(len(grid)), geometry)
+    between = np.array([[22.5, 22.5], [32.5, 32.5], [42.5, 27.5]])
+    # agrees; 0.8 px off the rows (supported, but off the epipolar lines); 2 px off them
+    second = run_of(between, [5.3, 5.0, 5.0], [0.2, 0.8, 2.0], geometry)
+    keep = both_features.added_matches(first, second)
+    assert keep.tolist() == [True, not estimated, False]
+
+
+def slow_acceptance(res):
+    """Whether each added match of ``res`` passes the module's tests, one match at a time."""
+    first = res.passes < 2
+    fl, fr = res.matched_left[first].astype(np.float64), res.matched_right[first].astype(
+        np.float64)
+    ok = []
+    for (xl, yl), (xr, yr) in zip(res.matched_left[~first].astype(np.float64),
+                                  res.matched_right[~first].astype(np.float64)):
+        dist = np.hypot(fl[:, 0] - xl, fl[:, 1] - yl)
+        near = dist <= both_features.SUPPORT_RADIUS
+        good = dist.min() > both_features.SEPARATION and near.sum() >= both_features.MIN_SUPPORT
+        if good:
+            tol = both_features.SUPPORT_TOLERANCE
+            good = (abs(np.median(fl[near, 0] - fr[near, 0]) - (xl - xr)) <= tol
+                    and abs(np.median(fl[near, 1] - fr[near, 1]) - (yl - yr)) <= tol)
+        ok.append(good)
+    return np.array(ok, dtype=bool)
+
+
+@pytest.mark.parametrize("kind", ["rectified", "unrectified"])
+def test_every_added_match_passes_the_tests_of_a_slow_reference(kind):
+    if kind == "rectified":
+        left, right = textured_pair()
+        res = hopmatch.match_stereo(left, right, max_disparity=16)
+    else:
+        left, right, _ = render_pair()
+        res = hopmatch.match_stereo(left, right, rectified=False)
+        assert res.geometry is not None
+    added = res.passes >= 2
+    assert added.sum() > 20
+    assert slow_acceptance(res).all()
+    if kind == "unrectified":  # within half a pixel of the first run's epipolar lines
+        e = symmetric_epipolar_error(res.fundamental_matrix, res.matched_left[added],
+                                     res.matched_right[added])
+        assert e.max() <= both_features.EPIPOLAR_TOLERANCE
 
 
 def test_instances_and_presets_are_honoured_and_left_unchanged():
@@ -141,9 +216,9 @@ def test_the_second_runs_warnings_are_not_given():
 def test_a_second_run_over_the_budget_is_left_out_with_a_warning():
     left, right = textured_pair()
     budget = {"max_disparity": 16, "max_neurons": 4000}
-    first = hopmatch.match_stereo(left, right, **budget)  # fits the budget...
+    first = hopmatch.match_stereo(left, right, both_features=False, **budget)  # fits...
     with pytest.raises(BudgetExceededError):  # ...where the grey-level run does not
-        hopmatch.match_stereo(left, right, on="intensity", **budget)
+        hopmatch.match_stereo(left, right, on="intensity", both_features=False, **budget)
     with pytest.warns(BudgetExceededWarning, match="second run, on the intensity image"):
         res = hopmatch.match_stereo(left, right, both_features=True, **budget)
     assert res.second is None and len(res.query_idx) > 0

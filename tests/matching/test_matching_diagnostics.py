@@ -437,15 +437,15 @@ def test_few_matches_are_counted_on_what_match_stereo_returns(motorcycle, monkey
         h, w = left.shape
         right = cv2.warpAffine(right, cv2.getRotationMatrix2D((w / 2, h / 2), 2, 1.0),
                                (w, h))
-    res, caught = _caught(lambda: hopmatch.match_stereo(left, right, rectified=rectified))
+    one = {"rectified": rectified, "both_features": False}  # both: the first run's count
+    res, caught = _caught(lambda: hopmatch.match_stereo(left, right, **one))
     assert not [w for w in caught if issubclass(w.category, FewMatchesWarning)]
     n_net, n_all = len(res.network.query_idx), len(res.query_idx)
     assert 0 < n_net < n_all
     between, above = (n_net + n_all) // 2, n_all + 1
     for floor, warned in ((between, False), (above, True)):
         monkeypatch.setattr(diagnostics, "FEW_MATCHES_FLOOR", floor)
-        again, caught = _caught(lambda: hopmatch.match_stereo(left, right,
-                                                               rectified=rectified))
+        again, caught = _caught(lambda: hopmatch.match_stereo(left, right, **one))
         assert len(again.query_idx) == n_all
         few = [str(w.message) for w in caught if issubclass(w.category, FewMatchesWarning)]
         if warned:

@@ -338,7 +338,7 @@ def test_guided_matches_pass_every_acceptance_test(step, window, peaks, monkeypa
 
 def test_match_stereo_returns_guided_matches_as_extra_right_points():
     left, right = _scene(noise=6.0)
-    res = hopmatch.match_stereo(left, right, max_disparity=12)
+    res = hopmatch.match_stereo(left, right, max_disparity=12, both_features=False)
     n_net = len(res.network.query_idx)
     k = int((res.passes == PASS_GUIDED).sum())
     assert k > 0 and (res.passes[:n_net] == PASS_NETWORK).all()
@@ -357,13 +357,15 @@ def test_match_stereo_returns_guided_matches_as_extra_right_points():
 
 def test_guided_and_refine_can_be_turned_off_and_are_off_in_the_paper_preset():
     left, right = _scene()
-    off = hopmatch.match_stereo(left, right, max_disparity=12, guided=False, refine=False)
+    off = hopmatch.match_stereo(left, right, max_disparity=12, guided=False, refine=False,
+                                both_features=False)
     assert (off.passes == PASS_NETWORK).all() and off.guided is None
     np.testing.assert_array_equal(off.query_idx, off.network.query_idx)
     paper = hopmatch.match_stereo(left, right, preset="paper")
     assert paper.guided is None and paper.refinement is None
     assert paper.n_detected_right == len(paper.points_right)
-    only_refine = hopmatch.match_stereo(left, right, max_disparity=12, guided=False)
+    only_refine = hopmatch.match_stereo(left, right, max_disparity=12, guided=False,
+                                        both_features=False)
     assert (only_refine.passes == PASS_NETWORK).all() and only_refine.refinement is not None
 
 

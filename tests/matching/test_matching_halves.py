@@ -125,9 +125,10 @@ def test_match_stereo_drops_exactly_the_straddling_matches(monkeypatch):
     left8, right8 = left.astype(np.uint8), right.astype(np.uint8)
     # a stricter threshold than the default, so that this clean pair has matches to drop
     monkeypatch.setattr(halves, "HALF_MIN_ZNCC", 0.97)
-    on = hopmatch.match_stereo(left8, right8, max_disparity=16, threads=1)
+    one = {"max_disparity": 16, "threads": 1, "both_features": False}  # one run's arrays
+    on = hopmatch.match_stereo(left8, right8, **one)
     monkeypatch.setattr(halves, "HALF_CHECK", False)
-    off = hopmatch.match_stereo(left8, right8, max_disparity=16, threads=1)
+    off = hopmatch.match_stereo(left8, right8, **one)
     drop = halves.straddling(left8, right8, off.matched_left, off.matched_right)
     assert 0 < drop.sum() < len(drop) // 4
     np.testing.assert_array_equal(on.matched_left, off.matched_left[~drop])
@@ -149,6 +150,6 @@ def test_match_stereo_drops_exactly_the_straddling_matches(monkeypatch):
     # a detected right point no kept match uses is back where it was detected
     used = np.zeros(on.n_detected_right, bool)
     used[on.train_idx[on.passes == 0]] = True
-    plain = hopmatch.match_stereo(left8, right8, max_disparity=16, threads=1, refine=False)
+    plain = hopmatch.match_stereo(left8, right8, refine=False, **one)
     np.testing.assert_array_equal(on.points_right[:on.n_detected_right][~used],
                                   plain.points_right[:plain.n_detected_right][~used])

@@ -103,7 +103,7 @@ def test_sparse_keypoints_are_matched_where_the_given_window_keeps_none(nms_size
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         grown = hopmatch.match_stereo(left, right, max_disparity=20, guided=False,
-                                      nms_size=nms_size)
+                                      nms_size=nms_size, both_features=False)
     d = grown.matched_left[:, 0] - grown.matched_right[:, 0]
     assert len(d) >= 0.8 * len(grown.points_left)
     assert np.all(np.abs(d - 8) <= 1)

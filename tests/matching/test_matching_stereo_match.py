@@ -104,12 +104,12 @@ def test_match_stereo_refines_with_the_radius_of_its_image_size(monkeypatch):
     mask[400:600, 400:600] = 1  # detect in a small part only: the images stay 1 Mpixel
     res = hopmatch.match_stereo(big, np.roll(big, -8, axis=1), mask_left=mask,
                                 mask_right=np.roll(mask, -8, axis=1), max_disparity=16)
-    assert seen == [refine_radius(big.shape)] == [4]
+    assert seen == [refine_radius(big.shape)] * 2 == [4, 4]  # each run of both_features
     assert res.refinement is not None and res.refinement.ok.mean() > 0.8
     good = res.refinement.ok
     assert np.median(np.abs(res.disparities[good] - 8.0)) < 0.1
     seen.clear()
-    hopmatch.match_stereo(LEFT, RIGHT, max_disparity=12)
+    hopmatch.match_stereo(LEFT, RIGHT, max_disparity=12, both_features=False)
     assert seen == [REFINE_RADIUS]
 
 
