@@ -122,9 +122,7 @@ def points_of_both(res) -> np.ndarray:
     """The left points of both runs of a ``both_features`` result: the first run's, and the
     second's farther than ``SEPARATION`` px from every one of them."""
     first = res.points_left[:len(res.points_left) - len(res.second.points_left)]
-    second = res.second.points_left
-    far = both_features.far_from(second, first, both_features.SEPARATION)
-    return np.concatenate((first, second[far]))
+    return both_features.points_of_both(first, res.second.points_left)
 
 
 def bilinear_gt(points: np.ndarray, disparity: np.ndarray) -> np.ndarray:

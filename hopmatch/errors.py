@@ -168,10 +168,11 @@ class NotStereoPairWarning(FewMatchesWarning):
 
 
 class BudgetExceededWarning(HopmatchWarning):
-    """An optional step of the call was left out because its candidate pairs would exceed
-    ``max_candidates`` (the call's other steps fit): with ``both_features=True``, the second
-    run, on the other feature image. The result is that of the steps made; raise
-    ``max_candidates`` or narrow the disparity range to have the step."""
+    """An optional step of the call was left out because it would exceed a budget
+    (:class:`BudgetExceededError`: ``max_neurons``, ``max_interactions``...) that the call's
+    other steps fit: with ``both_features=True``, the second run, on the other feature
+    image. The result is that of the steps made; raise the budget the message names or
+    narrow the disparity range to have the step."""
 
 
 class GeometryWarning(HopmatchWarning):

@@ -281,8 +281,7 @@ def _moravec_left(gray: np.ndarray, half: int):
     integer positions inside a margin."""
     pts, _, _ = DericheMoravecDetector().detect_points(gray)
     grey, _, _ = DericheMoravecDetector(on="intensity").detect_points(gray)
-    far = both_features.far_from(grey, pts, both_features.SEPARATION)
-    return _inside(np.concatenate((pts, grey[far])), gray.shape, half)
+    return _inside(both_features.points_of_both(pts, grey), gray.shape, half)
 
 
 def _inside(points: np.ndarray, shape: tuple, half: int = 0):

@@ -72,6 +72,12 @@ def far_from(points: np.ndarray, others: np.ndarray, separation: float) -> np.nd
     return nearest > separation
 
 
+def points_of_both(first: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """The (x, y) points of both feature images: every one of ``first`` (the first run's),
+    then those of ``second`` farther than :data:`SEPARATION` px from every one of them."""
+    return np.concatenate((first, second[far_from(second, first, SEPARATION)]))
+
+
 def neighbour_medians(points: np.ndarray, others: np.ndarray, values: np.ndarray,
                       radius: float) -> tuple[np.ndarray, np.ndarray]:
     """``(count, median)``: how many of ``others`` lie within ``radius`` of each of
