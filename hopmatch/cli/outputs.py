@@ -26,8 +26,8 @@ from .._validate import DEFAULT_MAX_PIXELS
 from ..files import NAME_MAX, encode_image
 from .reporting import CLIError
 
-__all__ = ["Outputs", "Terminated", "image_info", "ms", "read_image", "run_json",
-           "signals_deferred", "terminations_as_interrupts", "versions"]
+__all__ = ["Outputs", "Terminated", "image_info", "ms", "raise_if_terminated", "read_image",
+           "run_json", "signals_deferred", "terminations_as_interrupts", "versions"]
 
 #: The signals a run turns into :class:`Terminated` (SIGINT is Python's KeyboardInterrupt
 #: already) and that :func:`signals_deferred` holds back during the final renames: every
@@ -76,8 +76,24 @@ class Terminated(KeyboardInterrupt):
         self.signum = signum
 
 
+#: The signals :func:`_raise_terminated` received in this process's current run, in order.
+_received: list[int] = []
+
+
 def _raise_terminated(signum, frame):
+    _received.append(signum)
     raise Terminated(signum)
+
+
+def raise_if_terminated() -> None:
+    """Raise :class:`Terminated` again for the first signal of the current run that
+    :func:`terminations_as_interrupts` turned into one, if any: a handler that runs inside
+    a finaliser or a garbage-collector callback has its exception printed by Python and
+    dropped, and the run would go on as if the signal never came. :meth:`Outputs.commit`
+    and the end of :func:`terminations_as_interrupts` call it, so that such a run still
+    ends as interrupted, its files never placed."""
+    if _received:
+        raise Terminated(_received[0])
 
 
 @contextlib.contextmanager
@@ -91,10 +107,12 @@ def terminations_as_interrupts():
         yield
         return
     old = {}
+    _received.clear()
     try:
         for signum in _defaults(CAUGHT_SIGNALS):
             old[signum] = signal.signal(signum, _raise_terminated)
         yield
+        raise_if_terminated()  # a signal whose exception something swallowed
     finally:
         for signum, handler in old.items():
             signal.signal(signum, handler)
@@ -222,6 +240,7 @@ class Outputs:
         self.add(name, encode_image(image, Path(name).suffix))
 
     def commit(self) -> None:
+        raise_if_terminated()  # terminated, though the exception got lost: place nothing
         with signals_deferred():
             if self.fresh:
                 try:
