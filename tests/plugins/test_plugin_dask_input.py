@@ -9,6 +9,7 @@ need a cluster share one LocalCluster of one worker process with one thread.
 from __future__ import annotations
 
 import csv
+import inspect
 import socket
 import threading
 import warnings
@@ -476,3 +477,39 @@ class TestMinor:
         assert seen["env"] == {"OPENCV_FOR_THREADS_NUM": "1", "A": "b"}
         with pytest.raises(InvalidTypeError, match="`env`"):
             hopmatch_dask.local_cluster(1, env=5)
+
+    def test_local_cluster_options(self, no_cluster):
+        """Options of LocalCluster, of the Nanny and Worker it starts and of their Server
+        pass; a misspelled one is refused before any process starts (distributed only
+        failed in each worker: "Nanny failed to start")."""
+        from distributed.core import Server
+        from distributed.deploy.local import LocalCluster
+        from distributed.nanny import Nanny
+        from distributed.worker import Worker
+
+        options = {"n_workers": 1, "memory_limit": "1GB", "lifetime": "1h",
+                   "connection_limit": 10, "silence_logs": 40}
+        for key, cls in (("n_workers", LocalCluster), ("memory_limit", Nanny),
+                         ("lifetime", Worker), ("connection_limit", Server)):
+            assert key in inspect.signature(cls.__init__).parameters
+        assert hopmatch_dask.checks.check_cluster_options(options) == options
+        with pytest.raises(InvalidTypeError, match="did you mean 'n_workers'") as info:
+            hopmatch_dask.local_cluster(1, n_wokers=2)
+        assert info.value.argument == "n_wokers" and "`n_wokers`" in str(info.value)
+
+        class Custom(Worker):  # a worker class of its own: its options too
+            def __init__(self, *args, colour="red", **kwargs):
+                super().__init__(*args, **kwargs)
+
+        class Strict(Worker):
+            def __init__(self, scheduler_ip=None, *, colour="red"):
+                super().__init__(scheduler_ip)
+
+        assert hopmatch_dask.checks.check_cluster_options(
+            {"worker_class": Custom, "anything": 1}) == {"worker_class": Custom,
+                                                          "anything": 1}
+        assert hopmatch_dask.checks.check_cluster_options({"worker_class": Strict,
+                                                           "colour": "blue"})
+        with pytest.raises(InvalidTypeError, match="`colur`"):
+            hopmatch_dask.checks.check_cluster_options({"worker_class": Strict,
+                                                        "colur": "blue"})

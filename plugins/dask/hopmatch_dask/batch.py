@@ -25,6 +25,7 @@ from .checks import (
     PROBE_TIMEOUT,
     SchedulerAddressError,
     check_client,
+    check_cluster_options,
     check_env,
     check_images,
     check_out,
@@ -203,10 +204,13 @@ def local_cluster(workers: int | None = None, **kwargs):
     OpenCV in each worker runs on one thread (``OPENCV_FOR_THREADS_NUM=1``): the workers
     already use every core, and OpenCV's own threads only add contention (measured by
     ``benchmarks/dask_batch.py``, see ``docs/cluster.md``).
-    ``kwargs`` go to ``LocalCluster`` (``env``, None or a mapping, is merged).
+    ``kwargs`` go to ``LocalCluster`` (``env``, None or a mapping, is merged); one that is
+    no option of ``LocalCluster`` or of its workers raises ``InvalidTypeError`` naming it
+    (:func:`~hopmatch_dask.checks.check_cluster_options`), before anything starts.
     """
     workers = check_workers(workers)
     env = check_env(kwargs.pop("env", None))
+    check_cluster_options(kwargs)
     from distributed import LocalCluster
 
     if workers is None:

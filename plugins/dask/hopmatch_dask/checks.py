@@ -33,9 +33,9 @@ from hopmatch.errors import (
 from hopmatch.files import NAME_MAX, os_reason
 
 __all__ = ["HANDSHAKE_TIMEOUT", "MAX_WORKERS_PER_CORE", "PROBE_TIMEOUT", "SCHEMES",
-           "SchedulerAddressError", "check_client", "check_env", "check_images", "check_out",
-           "check_progress", "check_scheduler", "check_workers", "cores", "describe",
-           "make_folder", "max_local_workers"]
+           "SchedulerAddressError", "check_client", "check_cluster_options", "check_env",
+           "check_images", "check_out", "check_progress", "check_scheduler", "check_workers",
+           "cores", "describe", "make_folder", "max_local_workers"]
 
 #: A local cluster has at most this many worker processes per core this process may run on
 #: (:func:`max_local_workers`): each worker is a process of about 100 MB that matches on one
@@ -115,6 +115,51 @@ def check_env(env, name: str = "env") -> dict:
         raise InvalidArgumentError(f"`{name}`: {bad[0]!r} cannot name an environment "
                                    "variable", argument=name)
     return {k: str(v) for k, v in env.items()}
+
+
+def _keyword_names(cls) -> tuple[set[str], bool]:
+    """The keyword parameters of ``cls.__init__`` and whether it takes ``**kwargs``."""
+    import inspect
+
+    try:
+        params = inspect.signature(cls.__init__).parameters.values()
+    except (TypeError, ValueError):  # no signature to read: anything may be an option
+        return set(), True
+    names = {p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+    return names - {"self"}, any(p.kind is p.VAR_KEYWORD for p in params)
+
+
+def check_cluster_options(options: dict) -> dict:
+    """``options`` (keyword arguments for ``distributed.LocalCluster``) if each is a
+    parameter of ``LocalCluster`` or of the workers it starts (a ``Nanny`` running a
+    ``Worker``, both passing the rest to ``distributed.core.Server``; the
+    ``worker_class`` given, if any), else :class:`~hopmatch.errors.InvalidTypeError`
+    naming the first unknown one, with the closest known names. ``distributed`` itself
+    takes a misspelled option only in each worker process, and fails there ("Nanny failed
+    to start") after the scheduler and the other workers have started. A ``worker_class``
+    of another kind that takes ``**kwargs`` is left to check its own options."""
+    import difflib
+
+    from distributed.core import Server
+    from distributed.deploy.local import LocalCluster
+    from distributed.nanny import Nanny
+    from distributed.worker import Worker
+
+    classes = [LocalCluster, Nanny, Worker, Server]
+    worker_class = options.get("worker_class")
+    if isinstance(worker_class, type) and worker_class not in (Nanny, Worker):
+        if _keyword_names(worker_class)[1]:
+            return options
+        classes.append(worker_class)
+    known = set().union(*(_keyword_names(c)[0] for c in classes))
+    for key in options:
+        if key not in known:
+            near = difflib.get_close_matches(str(key), sorted(known), n=3)
+            hint = f" (did you mean {' or '.join(map(repr, near))}?)" if near else ""
+            raise InvalidTypeError(
+                f"`{key}` is no option of distributed.LocalCluster or of its workers{hint}; "
+                "local_cluster passes its keyword arguments to LocalCluster", argument=key)
+    return options
 
 
 def check_client(client, name: str = "client"):
