@@ -1,6 +1,6 @@
 """A full-size pair with texture everywhere, matched with no parameter (issue 18).
 
-Run: ``python benchmarks/textured_pair.py [--size W H] [--sigma S] [--smoke]``
+Run: ``python benchmarks/textured_pair.py [--size W H] [--sigma S] [--threads N] [--smoke]``
 
 ``benchmarks/unrectified.py --sections large`` matches motorcycle upsampled to 2964 x
 2000: smooth at that size (cubic interpolation), it gives 95,000 keypoints an image. A
@@ -11,7 +11,8 @@ pixel), the right view the left one resampled along its rows (``cv2.remap``, cub
 disparity that is a slanted plane from 5 % of the width (top left) to 15 % (bottom right;
 150 to 450 px at 2964 px), as a receding floor seen by a wide-baseline rig. It prints, for
 ``match_stereo(left, right)`` with no parameter (in a fresh interpreter, one thread, after
-a call on a small crop that loads the kernels): the keypoints, whether the network ran on
+a call on a small crop that loads the kernels; ``--threads N``: hopmatch on N threads,
+SIFT still on one): the keypoints, whether the network ran on
 every left point or on a thinned set (``result.network.thinned``; docs/parameters.md,
 "Disparity range"), the range, the matches and their precision at 1 px against the plane,
 the time, the peak memory (``ru_maxrss``) and the warnings; and SIFT ``detectAndCompute``
@@ -49,6 +50,7 @@ from _common import single_thread
 single_thread()
 import hopmatch
 w, h, sigma, mode = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3]), sys.argv[4]
+hopmatch.setNumThreads(int(sys.argv[5]))  # SIFT keeps one thread
 left, right = make_pair(w, h, sigma)
 out = {{}}
 if mode == "sift":
@@ -116,16 +118,19 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=int, nargs=2, default=(2964, 2000), metavar=("W", "H"))
     ap.add_argument("--sigma", type=float, default=1.0,
                     help="blur of the noise, px (larger: smoother, fewer keypoints)")
+    ap.add_argument("--threads", type=int, default=1,
+                    help="hopmatch's threads (default 1; SIFT runs on one thread)")
     args = ap.parse_args(argv)
     w, h = (600, 400) if args.smoke else args.size
     child = CHILD.format(here=str(HERE))
-    runs = {mode: run_fresh_interpreter(child, [str(w), str(h), str(args.sigma), mode],
-                                        None, notice=False)
+    runs = {mode: run_fresh_interpreter(child, [str(w), str(h), str(args.sigma), mode,
+                                                str(args.threads)], None, notice=False)
             for mode in ("hopmatch", "sift")}
     hop, sift = runs["hopmatch"], runs["sift"]
     print(f"## A textured {w} x {h} pair (noise blurred by {args.sigma:g} px, disparity a "
           f"plane of {D_TOP_LEFT * w:.0f}-{(D_TOP_LEFT + D_ACROSS + D_DOWN) * w:.0f} px), "
-          "match_stereo(left, right) with no parameter\n")
+          "match_stereo(left, right) with no parameter"
+          + (f", {args.threads} threads" if args.threads != 1 else "") + "\n")
     thinned = ("every left point" if hop["thinned"] is None else
                f"{hop['thinned']} of {hop['keypoints'][0]} left points (thinned)")
     print(f"keypoints {hop['keypoints'][0]} / {hop['keypoints'][1]}; the network ran on "

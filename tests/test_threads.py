@@ -3,6 +3,8 @@ bit-identical for any thread count."""
 
 from __future__ import annotations
 
+from unittest import mock
+
 import numpy as np
 import pytest
 
@@ -112,6 +114,13 @@ def test_neighbour_lists_and_planes_are_bit_identical_in_threads(threads):
     assert np.count_nonzero(want[1]) > 1000
     for g, w in zip(got, want):
         np.testing.assert_array_equal(g, w)
+    # in blocks of queries (local_planes: PLANE_BLOCK at a time), the same planes
+    for block in (len(queries), 300, 7):
+        with mock.patch.object(neighbourhood, "PLANE_BLOCK", block):
+            blocked = neighbourhood.local_planes(queries, matched, h, h, disp, 2.0, 4,
+                                                 threads=threads)
+        for g, w in zip(blocked, want):
+            np.testing.assert_array_equal(g, w)
 
 
 def test_run_both_keeps_the_sequential_errors():

@@ -112,6 +112,34 @@ def neighbour_planes(queries, offsets, idx, m_left, values, inlier, min_count,
     return tuple(np.concatenate([p[k] for p in parts]) for k in range(3))
 
 
+#: :func:`local_planes` finds the neighbours of this many queries at a time, so that their
+#: lists (about 170 per match within the refinement's window on a 2964 x 2000 textured
+#: pair) never all exist at once.
+PLANE_BLOCK = 32_768
+
+
+def local_planes(queries, matched, half_w, half_h, values, inlier, min_count,
+                 threads: int | None = None):
+    """:func:`neighbour_planes` of each query over the ``matched`` points within ``half_w``
+    x ``half_h`` of it (:func:`query_neighbours`; ``values`` one per matched point), for
+    :data:`PLANE_BLOCK` queries at a time: the same ``(prediction, gx, gy)`` as one call
+    (each query's list and plane are its own), with the neighbour lists of one block held
+    at a time."""
+    n = len(queries)
+    if n <= PLANE_BLOCK:
+        off, idx = query_neighbours(queries, matched, half_w, half_h, threads=threads)
+        return neighbour_planes(queries, off, idx, matched, values, inlier, min_count,
+                                threads=threads)
+    parts = []
+    for lo in range(0, n, PLANE_BLOCK):
+        block = queries[lo:lo + PLANE_BLOCK]
+        off, idx = query_neighbours(block, matched, half_w, half_h, threads=threads)
+        parts.append(neighbour_planes(block, off, idx, matched, values, inlier, min_count,
+                                      threads=threads))
+        del off, idx
+    return tuple(np.concatenate([p[k] for p in parts]) for k in range(3))
+
+
 def nearest_of(points, off, idx, matched, k):
     """The CSR neighbour lists ``(off, idx)`` of ``points`` cut to each point's ``k``
     nearest (Euclidean distance to ``matched[idx]``; ties by index), in the order of

@@ -10,7 +10,7 @@ import numpy as np
 from .._kernels import refine as _k
 from .._threads import map_chunks, row_order
 from ..errors import InvalidArgumentError
-from .neighbourhood import neighbour_planes, query_neighbours
+from .neighbourhood import local_planes
 
 #: Half-side of the refinement windows (7 x 7 pixels of the grey images).
 REFINE_RADIUS = 3
@@ -179,9 +179,8 @@ def disparity_gradients(left: np.ndarray, disparity: np.ndarray, scale: float = 
         return gx, gy
     pts = np.ascontiguousarray(left[good], dtype=np.float32)
     half = np.float32(SLANT_HALF_WINDOW * scale)
-    off, idx = query_neighbours(pts, pts, half, half, threads=threads)
-    _, bx, by = neighbour_planes(pts, off, idx, pts, np.ascontiguousarray(disparity[good]),
-                                 SLANT_PLANE_INLIER * scale, SLANT_PLANE_MIN, threads=threads)
+    _, bx, by = local_planes(pts, pts, half, half, np.ascontiguousarray(disparity[good]),
+                             SLANT_PLANE_INLIER * scale, SLANT_PLANE_MIN, threads=threads)
     gx[good] = np.clip(bx, -SLANT_GRADIENT_LIMIT, SLANT_GRADIENT_LIMIT)
     gy[good] = np.clip(by, -SLANT_GRADIENT_LIMIT, SLANT_GRADIENT_LIMIT)
     return gx, gy

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import warnings
 from types import SimpleNamespace
+from unittest import mock
 
 import cv2
 import numpy as np
@@ -38,21 +39,24 @@ def slow_neighbour_medians(points, others, values, radius):
 
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 40), st.integers(0, 40), st.integers(0, 2**31 - 1),
-       st.sampled_from([0.5, 3.0, 12.0]))
-def test_neighbour_medians_equal_the_slow_reference(n, m, seed, radius):
+       st.sampled_from([0.5, 3.0, 12.0]), st.sampled_from([1, 3, 8, 65_536]))
+def test_neighbour_medians_equal_the_slow_reference(n, m, seed, radius, block):
+    """Also when the points are taken ``block`` at a time (``MEDIAN_BLOCK``, 65,536 by
+    default: one block here)."""
     rng = np.random.default_rng(seed)
     points = np.round(rng.random((n, 2)) * 30, 1)  # ties and points at exactly `radius`
     others = np.round(rng.random((m, 2)) * 30, 1)
     values = np.round(rng.normal(5, 3, m), 0)  # repeated values: the median of ties
-    count, median = both_features.neighbour_medians(points, others, values, radius)
+    other = np.round(rng.normal(0, 0.7, m), 1)
+    with mock.patch.object(both_features, "MEDIAN_BLOCK", block):
+        count, median = both_features.neighbour_medians(points, others, values, radius)
+        count2, both = both_features.neighbour_medians(points, others,
+                                                       np.column_stack([values, other]), radius)
     want_count, want_median = slow_neighbour_medians(points, others, values, radius)
     np.testing.assert_array_equal(count, want_count)
     # (a median read back off the sort key ``point * span + value`` is off by a rounding)
     np.testing.assert_allclose(median, want_median, atol=1e-9, equal_nan=True)
     # two columns at once (disparity and yl - yr): each the median of its own column
-    other = np.round(rng.normal(0, 0.7, m), 1)
-    count2, both = both_features.neighbour_medians(points, others,
-                                                   np.column_stack([values, other]), radius)
     np.testing.assert_array_equal(count2, want_count)
     assert both.shape == (n, 2)
     np.testing.assert_allclose(both[:, 0], want_median, atol=1e-9, equal_nan=True)
