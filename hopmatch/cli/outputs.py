@@ -116,6 +116,7 @@ def terminations_as_interrupts():
     finally:
         for signum, handler in old.items():
             signal.signal(signum, handler)
+        _received.clear()  # said; a later run (in any thread) starts afresh
 
 
 @contextlib.contextmanager

@@ -18,6 +18,7 @@ import pytest
 from cli_helpers import files_in
 
 from hopmatch.cli import main
+from hopmatch.cli.outputs import raise_if_terminated
 
 ARGS = ["--plot-energy", "--figures"]
 #: What the second run changes: other keypoints, so that every file differs.
@@ -222,6 +223,10 @@ def test_a_termination_whose_exception_got_lost_still_ends_the_run(pair, tmp_pat
     out = tmp_path / "new" / "out"
     assert _match(pair, out) == 128 + signal.SIGUSR1
     assert files_in(tmp_path) == []  # no folder, parent or staging folder
+    # said once: a later run, in this thread or another, is not ended by it again
+    raise_if_terminated()
+    monkeypatch.undo()
+    assert _match(pair, out) == 0 and (out / "run.json").is_file()
 
 
 @pytest.mark.skipif(os.name != "posix", reason="POSIX signals")

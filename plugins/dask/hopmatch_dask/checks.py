@@ -117,14 +117,15 @@ def check_env(env, name: str = "env") -> dict:
     return {k: str(v) for k, v in env.items()}
 
 
-def _keyword_names(cls) -> tuple[set[str], bool]:
-    """The keyword parameters of ``cls.__init__`` and whether it takes ``**kwargs``."""
+def _keyword_names(cls) -> tuple[set[str], bool] | None:
+    """The keyword parameters of ``cls.__init__`` and whether it takes ``**kwargs``; None
+    when its signature cannot be read."""
     import inspect
 
     try:
         params = inspect.signature(cls.__init__).parameters.values()
-    except (TypeError, ValueError):  # no signature to read: anything may be an option
-        return set(), True
+    except (TypeError, ValueError):
+        return None
     names = {p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
     return names - {"self"}, any(p.kind is p.VAR_KEYWORD for p in params)
 
@@ -148,10 +149,11 @@ def check_cluster_options(options: dict) -> dict:
     classes = [LocalCluster, Nanny, Worker, Server]
     worker_class = options.get("worker_class")
     if isinstance(worker_class, type) and worker_class not in (Nanny, Worker):
-        if _keyword_names(worker_class)[1]:
-            return options
         classes.append(worker_class)
-    known = set().union(*(_keyword_names(c)[0] for c in classes))
+    signatures = [_keyword_names(c) for c in classes]
+    if any(sig is None for sig in signatures) or (len(classes) > 4 and signatures[-1][1]):
+        return options  # a signature unread, or a worker class of its own that takes **kwargs
+    known = set().union(*(names for names, _ in signatures))
     for key in options:
         if key not in known:
             near = difflib.get_close_matches(str(key), sorted(known), n=3)
