@@ -125,18 +125,15 @@ def local_planes(queries, matched, half_w, half_h, values, inlier, min_count,
     :data:`PLANE_BLOCK` queries at a time: the same ``(prediction, gx, gy)`` as one call
     (each query's list and plane are its own), with the neighbour lists of one block held
     at a time."""
-    n = len(queries)
-    if n <= PLANE_BLOCK:
-        off, idx = query_neighbours(queries, matched, half_w, half_h, threads=threads)
-        return neighbour_planes(queries, off, idx, matched, values, inlier, min_count,
-                                threads=threads)
     parts = []
-    for lo in range(0, n, PLANE_BLOCK):
+    for lo in range(0, max(len(queries), 1), PLANE_BLOCK):  # no query: one empty block
         block = queries[lo:lo + PLANE_BLOCK]
         off, idx = query_neighbours(block, matched, half_w, half_h, threads=threads)
         parts.append(neighbour_planes(block, off, idx, matched, values, inlier, min_count,
                                       threads=threads))
-        del off, idx
+        del off, idx  # freed before the next block's lists are made
+    if len(parts) == 1:
+        return parts[0]
     return tuple(np.concatenate([p[k] for p in parts]) for k in range(3))
 
 

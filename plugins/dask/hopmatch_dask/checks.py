@@ -146,13 +146,15 @@ def check_cluster_options(options: dict) -> dict:
     from distributed.nanny import Nanny
     from distributed.worker import Worker
 
-    classes = [LocalCluster, Nanny, Worker, Server]
     worker_class = options.get("worker_class")
-    if isinstance(worker_class, type) and worker_class not in (Nanny, Worker):
-        classes.append(worker_class)
-    signatures = [_keyword_names(c) for c in classes]
-    if any(sig is None for sig in signatures) or (len(classes) > 4 and signatures[-1][1]):
-        return options  # a signature unread, or a worker class of its own that takes **kwargs
+    own = (worker_class if isinstance(worker_class, type)
+           and worker_class not in (Nanny, Worker) else None)
+    signatures = [_keyword_names(c) for c in (LocalCluster, Nanny, Worker, Server, own)
+                  if c is not None]
+    if any(sig is None for sig in signatures):
+        return options  # a signature unread: anything may be an option
+    if own is not None and signatures[-1][1]:
+        return options  # a worker class of its own that takes **kwargs checks them
     known = set().union(*(names for names, _ in signatures))
     for key in options:
         if key not in known:
