@@ -22,7 +22,8 @@ caches, memory bandwidth or a clock that drops with load gives less). ``--smoke`
 
 Every call matches one run (``both_features=False``): the threading inside a run. With
 ``both_features`` (the default since 2026-12-07) two threads first run the two runs at
-once, one thread each (``benchmarks/end_to_end.py``'s two-thread row).
+once, one thread each (``benchmarks/end_to_end.py``'s two-thread row; N threads: N // 2
+for the first run, the rest for the second).
 """
 
 from __future__ import annotations

@@ -223,8 +223,9 @@ def match_both_features(run, call: dict, detector, matcher,
     then again with the detector on the other feature image, merged (:func:`merge_results`
     of :func:`added_matches`). ``detector`` is the detector the first run uses (``call``'s,
     or one made of its parameters); ``matcher`` ``call``'s instance or None, cloned, never
-    changed. With ``threads`` >= 2 the two runs run at once, one thread each (each run's
-    result is the same for any thread count, so the merge is too). The second run's
+    changed. With ``threads`` >= 2 the two runs run at once and share the threads, the
+    first run ``threads // 2`` of them and the second the rest (one each on two cores);
+    each run's result is the same for any thread count, so the merge is too. The second run's
     warnings are not given: the first run has said what there is to say about the pair. A
     second run over the candidate budget (:class:`~hopmatch.errors.BudgetExceededError`) is
     left out: the first run is returned, with a
@@ -236,9 +237,10 @@ def match_both_features(run, call: dict, detector, matcher,
         first_call["matcher"] = first_matcher
     else:
         first_call["both_features"] = False
-    if threads >= 2:
-        first_call["threads"] = 1
     second_call = dict(first_call)
+    if threads >= 2:  # an odd thread to the second run (the defaults': the longer)
+        first_call["threads"] = threads // 2
+        second_call["threads"] = threads - threads // 2
     other = other_feature(detector.get_params()["on"])
     if call.get("detector") is not None:
         second_call["detector"] = type(detector)(**{**detector.get_params(), "on": other})

@@ -230,7 +230,7 @@ def test_a_second_run_over_the_budget_is_left_out_with_a_warning():
     np.testing.assert_array_equal(res.matched_right, first.matched_right)
 
 
-@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("threads", [1, 2, 3, 4])
 def test_deterministic_for_any_thread_count(threads):
     left, right = textured_pair()
     one = hopmatch.match_stereo(left, right, max_disparity=16, both_features=True, threads=1)
